@@ -1,0 +1,28 @@
+"""The README's set-up contract and the command line's basics."""
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+from xcheck import __version__
+from xcheck.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_readme_opens_with_exactly_two_setup_commands():
+    text = (ROOT / "README.md").read_text()
+    first_block = re.search(r"```bash\n(.*?)```", text, re.S)
+    assert first_block and text.index("```bash") < text.index("\n## "), "the set-up block must come first"
+    lines = [line for line in first_block.group(1).splitlines() if line.strip()]
+    assert len(lines) == 2
+    assert "xcheck" in lines[0] and "pip install" in lines[0]
+    assert "pytest" in lines[1] and ".[test]" in lines[1]
+
+
+def test_version_and_list(capsys):
+    proc = subprocess.run([sys.executable, "-m", "xcheck", "--version"], capture_output=True, text=True)
+    assert proc.returncode == 0 and proc.stdout.strip() == f"xcheck {__version__}"
+    assert main(["list"]) == 0
+    assert "323" in capsys.readouterr().out
