@@ -1,0 +1,233 @@
+"""Our own integrators: ``integrate`` (one trajectory) and ``integrate_batch`` (a leading batch axis).
+
+>>> from xcheck.integrators import integrate, METHODS
+>>> traj = integrate("lie-rkmk4", [0.005625, 0.0028125, 0.0028125], q0, omega0, dt=1/256, duration=10.0)
+
+The fixed-step methods run in one compiled kernel (:mod:`._kernels`); with a Python torque callable the
+same kernel source runs interpreted. Parallel runs use processes or :func:`integrate_batch` (threads inside
+one compiled call), never Python threads over :func:`integrate`.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import rotations as rot
+from ..body import validate_inertia
+from ..fields import TorqueModel
+from ..trajectory import Trajectory, step_plan, time_grid
+from . import _kernels
+from .methods import METHODS, Method
+
+__all__ = ["integrate", "integrate_batch", "METHODS", "Method", "BatchResult", "SINGULAR_TOL"]
+
+#: An Euler-angle run stops when ``|det J|`` (``|sin|`` or ``|cos|`` of the middle angle) drops below this.
+SINGULAR_TOL = 1e-10
+#: Björck-Bowie stops when ``max |R^T R - I| <= BJORCK_TOL``.
+BJORCK_TOL = 4.5 * np.finfo(float).eps
+
+_twins: dict[str, object] = {}
+
+
+def _kernels_for(*, python: bool = False, batch: bool = False):
+    """The kernels for a run: compiled (single trajectories), the compiled "_inlined" twin (batches:
+    slower to compile, faster to run) or the interpreted "_python" twin (Python torque callables).
+    Twins are the same source file loaded under another module name (see :mod:`._kernels`)."""
+    if not python and not batch:
+        return _kernels
+    suffix = "_python" if python else "_inlined"
+    if suffix not in _twins:
+        name = _kernels.__name__ + suffix
+        spec = importlib.util.spec_from_file_location(name, _kernels.__file__)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+        _twins[suffix] = module
+    return _twins[suffix]
+
+
+def _method(name) -> Method:
+    if name not in METHODS:
+        raise ValueError(f"method: unknown {name!r}; expected one of {', '.join(METHODS)}")
+    return METHODS[name]
+
+
+def _resolve_torque(torque, duration):
+    """(kind or callable, P, T, python?) for the kernels."""
+    if torque is None:
+        return 0, np.zeros(3), np.zeros((0, 4)), False
+    if isinstance(torque, TorqueModel):
+        torque.check_span(duration)
+        kind, P, T = torque.kernel_data()
+        return kind, P, T, False
+    if callable(torque):
+        return torque, np.zeros(3), np.zeros((0, 4)), True
+    raise ValueError(f"torque: expected None, a TorqueModel or a callable (t, q, omega) -> (3,), got "
+                     f"{type(torque).__name__}")
+
+
+def _vector(x, name, n, unit=""):
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected {n} numbers{unit}") from exc
+    if a.shape[-1:] != (n,):
+        raise ValueError(f"{name}: expected shape ({n},){unit}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: contains non-finite values")
+    return a
+
+
+def _unit_quaternion(q0, name="q0"):
+    q = _vector(q0, name, 4, " [w, x, y, z]")
+    norm = np.linalg.norm(q, axis=-1, keepdims=True)
+    if np.any(norm < 1e-12):
+        raise ValueError(f"{name}: a zero quaternion is not an attitude")
+    return q / norm
+
+
+def _kernel_args(info: Method, sequence: str):
+    A, b, c = info.tableau.arrays()
+    use_hat = info.dexp_A is not None
+    Ahat = np.array(info.dexp_A, dtype=float) if use_hat else A
+    axes = np.array(rot._check_seq(sequence), dtype=np.int64)
+    return A, b, c, Ahat, use_hat, axes
+
+
+def _singular_message(info, sequence, y_last, t_stop):
+    b = y_last[1]
+    return (f"{info.name}: Euler sequence {sequence} reached its singularity at t = {t_stop:.6g} s "
+            f"(middle angle {b:.6g} rad = {np.degrees(b):.6g} deg: the first and third rotation axes coincide); "
+            "the trajectory ends at the last good step")
+
+
+def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, torque=None,
+              sequence: str = "323") -> Trajectory:
+    """Integrate rigid-body attitude motion with one of :data:`METHODS`.
+
+    Parameters
+    ----------
+    method : str
+        A key of :data:`METHODS`.
+    inertia : array_like (3,) or (3, 3)
+        Principal moments or the inertia tensor in body components [kg m^2].
+    q0 : array_like (4,)
+        Initial attitude [w, x, y, z], body -> world (normalised here).
+    omega0 : array_like (3,)
+        Initial body rate in body components [rad/s].
+    dt, duration : float
+        Step and total time [s]. The run ends exactly at ``duration``: if ``duration/dt`` is not an
+        integer, the last step is shortened (see :func:`xcheck.trajectory.step_plan`).
+    torque : None, TorqueModel or callable ``(t, q, omega) -> (3,)``
+        Body-frame torque [N m], evaluated at every stage with the stage's time and state (``q``
+        normalised). None: torque free. A :class:`~xcheck.fields.TorqueModel` runs compiled; any other
+        callable runs the same kernel interpreted (slower).
+    sequence : str
+        Euler sequence of ``euler-rk4`` (default ``"323"``, seed 001's Z-Y-Z).
+
+    Returns
+    -------
+    Trajectory
+        ``t`` (n+1,), ``q`` (n+1, 4), ``omega`` (n+1, 3), ``status`` "ok" | "singular" | "failed".
+    """
+    info = _method(method)
+    I = validate_inertia(inertia)
+    q0 = _unit_quaternion(q0)
+    omega0 = _vector(omega0, "omega0", 3, " [rad/s]")
+    if q0.ndim != 1 or omega0.ndim != 1:
+        raise ValueError("q0, omega0: integrate takes one trajectory; use integrate_batch for stacks")
+    n, last_h = step_plan(dt, duration)
+    rot._check_seq(sequence)
+    tk, P, T, python = _resolve_torque(torque, duration)
+    t = time_grid(n, float(dt), float(duration))
+    if info.kernel is None:
+        from .scipy_rk45 import integrate_scipy_rk45
+
+        return integrate_scipy_rk45(I, q0, omega0, t, torque, float(dt))
+
+    A, b, c, Ahat, use_hat, axes = _kernel_args(info, sequence)
+    kern = _kernels_for(python=python)
+    m = kern.STATE_SIZE[info.kernel]
+    y0 = info.encode(q0, omega0, sequence)
+    out = np.empty((n + 1, kern.MAX_STATE))
+    args = (A, b, c, Ahat, use_hat, float(dt), n, float(last_h), tk, P, T, axes, SINGULAR_TOL, BJORCK_TOL, 1)
+    steps, status = kern.RUN[info.kernel](args, y0, I, np.linalg.inv(I), out)
+    y = out[: steps + 1, :m]
+    q, omega, extras = info.decode(y, sequence)
+    traj = Trajectory(t=t[: steps + 1], q=q, omega=omega, method=info.name, dt=float(dt), extras=extras)
+    if status == kern.SINGULAR:
+        traj.status = "singular"
+        traj.message = _singular_message(info, sequence, y[-1], steps * float(dt))
+    elif status == kern.NONFINITE:
+        traj.status = "failed"
+        traj.message = (f"{info.name}: the state became non-finite in the step from t = {steps * float(dt):.6g} s; "
+                        "the trajectory ends at the last good step")
+    return traj
+
+
+@dataclass
+class BatchResult:
+    """Results of :func:`integrate_batch` for N trajectories.
+
+    ``t`` (k,), ``q`` (N, k, 4) and ``omega`` (N, k, 3) hold the saved points (``save="all"``: every step,
+    k = n + 1; ``save="final"``: k = 2, the initial and the final state); ``status`` (N,) of "ok" |
+    "singular" | "failed"; ``steps_done`` (N,). A stopped trajectory's last saved point is its last
+    good state.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    omega: np.ndarray
+    status: np.ndarray
+    steps_done: np.ndarray
+
+
+def integrate_batch(method: str, inertia, q0, omega0, *, dt: float, duration: float, torque=None,
+                    sequence: str = "323", save: str = "final") -> BatchResult:
+    """Integrate N trajectories at once (compiled, in parallel threads): ``q0`` (N, 4), ``omega0`` (N, 3);
+    ``inertia`` (3,), (3, 3), (N, 3) or (N, 3, 3). Other arguments as :func:`integrate`.
+    ``scipy-rk45`` is not a batch method."""
+    info = _method(method)
+    if info.kernel is None:
+        raise ValueError(f"method: {method} has no batch path; use integrate()")
+    q0 = _unit_quaternion(q0)
+    omega0 = _vector(omega0, "omega0", 3, " [rad/s]")
+    if q0.ndim != 2 or omega0.shape != (q0.shape[0], 3):
+        raise ValueError(f"q0, omega0: expected shapes (N, 4) and (N, 3), got {q0.shape} and {omega0.shape}")
+    N = q0.shape[0]
+    inertia = np.asarray(inertia, dtype=float)
+    if inertia.shape in ((3,), (3, 3)):
+        I = np.broadcast_to(validate_inertia(inertia), (N, 3, 3)).copy()
+    elif inertia.shape in ((N, 3), (N, 3, 3)):
+        I = np.stack([validate_inertia(x, name=f"inertia[{i}]") for i, x in enumerate(inertia)])  # (per body)
+    else:
+        raise ValueError(f"inertia: expected (3,), (3, 3), ({N}, 3) or ({N}, 3, 3), got {inertia.shape}")
+    if save not in ("final", "all"):
+        raise ValueError(f"save: expected 'final' or 'all', got {save!r}")
+    n, last_h = step_plan(dt, duration)
+    rot._check_seq(sequence)
+    tk, P, T, python = _resolve_torque(torque, duration)
+    A, b, c, Ahat, use_hat, axes = _kernel_args(info, sequence)
+    kern = _kernels_for(python=python, batch=True)
+    m = kern.STATE_SIZE[info.kernel]
+    Y0 = np.ascontiguousarray(info.encode(q0, omega0, sequence))
+    save_every = 1 if save == "all" else n
+    rows = n + 1 if save == "all" else 2
+    out = np.empty((N, rows, kern.MAX_STATE))
+    steps_done = np.zeros(N, dtype=np.int64)
+    status = np.zeros(N, dtype=np.int64)
+    args = (A, b, c, Ahat, use_hat, float(dt), n, float(last_h), tk, P, T, axes, SINGULAR_TOL, BJORCK_TOL,
+            save_every)
+    kern.BATCH[info.kernel](args, Y0, I, np.linalg.inv(I), out, steps_done, status)
+    y = out[:, :, :m].reshape(N * rows, m)
+    q, omega, _ = info.decode(y, sequence)  # (sign continuity across trajectories is harmless)
+    full_t = time_grid(n, float(dt), float(duration))
+    t = full_t if save == "all" else full_t[[0, -1]]
+    names = np.array(["ok", "singular", "failed"])
+    return BatchResult(t=t, q=q.reshape(N, rows, 4), omega=omega.reshape(N, rows, 3), status=names[status],
+                       steps_done=steps_done)
+

@@ -1,0 +1,219 @@
+"""The truth every trajectory is measured against.
+
+* :func:`exact_torque_free` — the exact torque-free motion of any rigid body: closed form for
+  axisymmetric and spherical bodies (MISSION.md, "Physics facts"), Jacobi elliptic functions for
+  asymmetric ones with the rotation about the fixed angular momentum by Gauss-Legendre quadrature.
+* :func:`dop853` — scipy's DOP853 at rtol 1e-13, atol 1e-15 (torqued cases).
+* :func:`fine` — the thesis's own reference: the same integrator at dt = 1e-4 s (seed 004 §3.3).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.special import ellipj, ellipk, ellipkinc
+
+from . import rotations as rot
+from .body import principal_axes, validate_inertia
+from .trajectory import continuous_quaternions
+
+__all__ = ["exact_torque_free", "dop853", "fine", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL"]
+
+#: Principal moments closer than this (relative to the largest) are treated as equal (axisymmetry).
+EQUAL_MOMENTS_RTOL = 1e-12
+#: Quadrature panels span at most this much of the elliptic argument tau (10 Gauss-Legendre nodes each).
+_PANEL_TAU = 0.25
+_GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(10)
+
+
+def _inputs(inertia, q0, omega0, t):
+    I = validate_inertia(inertia)
+    q0 = rot.quat_normalize(q0)
+    omega0 = np.asarray(omega0, dtype=float)
+    if q0.shape != (4,) or omega0.shape != (3,) or not np.all(np.isfinite(omega0)):
+        raise ValueError("q0, omega0: expected one attitude (4,) and one finite body rate (3,)")
+    t = np.asarray(t, dtype=float)
+    if t.ndim != 1 or not np.all(np.isfinite(t)):
+        raise ValueError("t: expected a 1-D array of finite times [s]")
+    return I, q0, omega0, t
+
+
+def exact_torque_free(inertia, q0, omega0, t):
+    """Exact torque-free attitude and body rate at times ``t``.
+
+    Parameters
+    ----------
+    inertia : array_like (3,) or (3, 3)
+        Principal moments or tensor in body components [kg m^2] (a full tensor is rotated to principal axes).
+    q0 : (4,) initial attitude [w, x, y, z], body -> world.
+    omega0 : (3,) initial body rate [rad/s].
+    t : (n,) times [s].
+
+    Returns
+    -------
+    q : ndarray (n, 4), sign-continuous; omega : ndarray (n, 3)
+    """
+    I, q0, omega0, t = _inputs(inertia, q0, omega0, t)
+    moments, V = principal_axes(I)
+    qV = rot.dcm_to_quat(V)  # principal -> body
+    qp, wp = _principal(moments, rot.quat_mul(q0, qV), V.T @ omega0, t)
+    q = rot.quat_mul(qp, rot.quat_conj(qV))
+    return continuous_quaternions(q), wp @ V.T
+
+
+def _principal(J, q0, w0, t):
+    """Exact motion in the principal frame, moments ``J`` ascending."""
+    Jw = J * w0
+    scale = J[2]
+    if np.linalg.norm(np.cross(w0, Jw)) <= 1e-15 * np.linalg.norm(w0) * np.linalg.norm(Jw) or not np.any(w0):
+        # steady rotation about a principal axis (or a spherical body): R(t) = R0 exp(t [w0 x])
+        return rot.quat_mul(q0, rot.rotvec_to_quat(t[:, None] * w0)), np.tile(w0, (len(t), 1))
+    if J[1] - J[0] <= EQUAL_MOMENTS_RTOL * scale:
+        return _axisymmetric(J, 2, q0, w0, t)
+    if J[2] - J[1] <= EQUAL_MOMENTS_RTOL * scale:
+        return _axisymmetric(J, 0, q0, w0, t)
+    return _asymmetric(J, q0, w0, t)
+
+
+def _axisymmetric(J, axis, q0, w0, t):
+    """Closed form: ``R(t) = exp(t [h]x / I_t) R0 exp(-t lam [a]x)``, ``lam = (I_a - I_t)(a.w0)/I_t``;
+    body rate ``w(t) = exp(t lam [a]x) (I w0 / I_t) - lam a``."""
+    a = np.zeros(3)
+    a[axis] = 1.0
+    I_a = J[axis]
+    I_t = np.mean(np.delete(J, axis))
+    h_body = J * w0
+    h_world = rot.quat_rotate(q0, h_body)
+    lam = (I_a - I_t) * w0[axis] / I_t
+    world_turn = rot.rotvec_to_quat(t[:, None] * (h_world / I_t))
+    body_turn = rot.rotvec_to_quat(-t[:, None] * lam * a)
+    q = rot.quat_mul(rot.quat_mul(world_turn, q0), body_turn)
+    omega = rot.quat_rotate(rot.quat_conj(body_turn), np.broadcast_to(h_body / I_t, (len(t), 3))) - lam * a
+    return q, omega
+
+
+def _asymmetric(J, q0, w0, t):
+    """Jacobi elliptic functions for the body rate; a 3-1-3 chart on a world frame whose z is the fixed
+    angular momentum for the attitude, its precession angle by Gauss-Legendre quadrature."""
+    E2 = float(np.dot(w0, J * w0))  # 2 x kinetic energy
+    h2 = float(np.dot(J * w0, J * w0))  # |h|^2
+    # the axis the body rate circulates about: the largest moment if h^2 > 2 E I2, else the smallest;
+    # relabel it axis 3 with a proper rotation P (body comps = P @ relabelled comps)
+    if h2 >= E2 * J[1]:
+        P = np.eye(3)
+    else:
+        P = np.array([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])  # columns e3, -e2, e1; det +1
+    qP = rot.dcm_to_quat(P)
+    J = np.abs(P.T @ J)  # moments relabelled (P is a signed permutation)
+    w = P.T @ w0
+    q_start = rot.quat_mul(q0, qP)
+    J1, J2, J3 = J
+    A1 = np.sqrt(abs((E2 * J3 - h2) / (J1 * (J3 - J1))))
+    A2 = np.sqrt(abs((E2 * J3 - h2) / (J2 * (J3 - J2))))
+    A3 = np.sqrt(abs((h2 - E2 * J1) / (J3 * (J3 - J1))))
+    lam = np.sqrt(abs((J3 - J2) * (h2 - E2 * J1) / (J1 * J2 * J3)))
+    m = min(abs((J2 - J1) * (E2 * J3 - h2) / ((J3 - J2) * (h2 - E2 * J1))), 1.0)
+    s3 = 1.0 if w[2] >= 0 else -1.0
+    s2 = s3 * np.sign(J3 - J2)  # from Euler's equations: w2 = s2 A2 sn keeps I2 w2' = (I3 - I1) w3 w1
+    tau0 = ellipkinc(np.arctan2(w[1] / (s2 * A2), w[0] / A1), m)
+
+    def rates(tt):
+        sn, cn, dn, _ = ellipj(tau0 + lam * tt, m)
+        return np.stack([A1 * cn, s2 * A2 * sn, s3 * A3 * dn], axis=-1)
+
+    h = np.sqrt(h2)
+
+    def psi_dot(tt):  # seed-independent classic: h (J1 w1^2 + J2 w2^2) / ((J1 w1)^2 + (J2 w2)^2)
+        r = rates(tt)
+        num = J1 * r[..., 0] ** 2 + J2 * r[..., 1] ** 2
+        den = (J1 * r[..., 0]) ** 2 + (J2 * r[..., 1]) ** 2
+        return h * num / den
+
+    omega = rates(t)
+    psi = _cumulative_quadrature(psi_dot, t, _PANEL_TAU / lam)
+    Jw = omega * J
+    theta = np.arctan2(np.hypot(Jw[:, 0], Jw[:, 1]), Jw[:, 2])
+    phi = np.arctan2(Jw[:, 0], Jw[:, 1])
+    Jw0 = w * J
+    theta0 = np.arctan2(np.hypot(Jw0[0], Jw0[1]), Jw0[2])
+    phi0 = np.arctan2(Jw0[0], Jw0[1])
+    # world frame H with z along h: R_WH = R0 (Rx(theta0) Rz(phi0))^T, so that psi(0) = 0
+    q_WH = rot.quat_mul(q_start, rot.quat_conj(rot.euler_to_quat([0.0, theta0, phi0], "313")))
+    q = rot.quat_mul(q_WH, rot.euler_to_quat(np.stack([psi, theta, phi], axis=-1), "313"))
+    return rot.quat_mul(q, rot.quat_conj(qP)), omega @ P.T
+
+
+def _cumulative_quadrature(f, t, max_panel):
+    """``int_0^t f`` at each time of ``t`` (any order, any sign) by 10-point Gauss-Legendre on panels no
+    longer than ``max_panel`` between consecutive knots (the requested times and 0)."""
+    knots, inverse = np.unique(np.concatenate([[0.0], t]), return_inverse=True)
+    lengths = np.diff(knots)
+    counts = np.maximum(1, np.ceil(lengths / max_panel).astype(int))
+    # panels: each knot interval split into `counts` equal parts
+    seg = np.repeat(np.arange(len(lengths)), counts)
+    k = np.arange(len(seg)) - np.repeat(np.cumsum(counts) - counts, counts)
+    width = lengths[seg] / counts[seg]
+    left = knots[seg] + k * width
+    nodes = left[:, None] + 0.5 * width[:, None] * (_GL_NODES + 1.0)
+    panel = 0.5 * width * (f(nodes) @ _GL_WEIGHTS)
+    per_interval = np.bincount(seg, weights=panel, minlength=len(lengths))
+    cumulative = np.concatenate([[0.0], np.cumsum(per_interval)])
+    zero = np.searchsorted(knots, 0.0)
+    return (cumulative - cumulative[zero])[inverse[1:]]
+
+
+# ------------------------------------------------------------------------------------------------
+# numerical references
+# ------------------------------------------------------------------------------------------------
+def rigid_body_rhs(inertia, torque=None):
+    """``f(t, y)`` for ``y = [q (4), omega (3)]``: ``q' = 1/2 q ⊗ (0, w)``, ``w' = I^-1 (t - w x I w)``;
+    the torque is evaluated with the normalised ``q``."""
+    I = validate_inertia(inertia)
+    Iinv = np.linalg.inv(I)
+
+    def f(t, y):
+        q, w = y[:4], y[4:]
+        tau = 0.0 if torque is None else np.asarray(torque(t, q / np.sqrt(q @ q), w), dtype=float)
+        qd = 0.5 * np.array([-q[1] * w[0] - q[2] * w[1] - q[3] * w[2],
+                             q[0] * w[0] + q[2] * w[2] - q[3] * w[1],
+                             q[0] * w[1] + q[3] * w[0] - q[1] * w[2],
+                             q[0] * w[2] + q[1] * w[1] - q[2] * w[0]])
+        wd = Iinv @ (tau - np.cross(w, I @ w))
+        return np.concatenate([qd, wd])
+
+    return f
+
+
+def dop853(inertia, q0, omega0, t, *, torque=None, rtol: float = 1e-13, atol: float = 1e-15):
+    """High-accuracy reference: scipy DOP853 on ``[q, omega]`` (rtol 1e-13, atol 1e-15), quaternion
+    normalised at output. ``t`` ascending from 0. Returns ``q`` (n, 4), ``omega`` (n, 3)."""
+    I, q0, omega0, t = _inputs(inertia, q0, omega0, t)
+    if np.any(np.diff(t) < 0) or t[0] < 0:
+        raise ValueError("t: expected ascending times from 0")
+    sol = solve_ivp(rigid_body_rhs(I, torque), (0.0, float(t[-1])), np.concatenate([q0, omega0]),
+                    method="DOP853", t_eval=t, rtol=rtol, atol=atol)
+    if sol.status != 0:
+        raise RuntimeError(f"dop853 reference failed: {sol.message}")
+    q = sol.y[:4].T
+    return continuous_quaternions(q / np.linalg.norm(q, axis=1, keepdims=True)), sol.y[4:].T
+
+
+def fine(method, inertia, q0, omega0, *, duration: float, torque=None, dt: float = 1e-4, sequence="323"):
+    """The thesis's reference (seed 004 §3.3): ``method`` itself at ``dt = 1e-4`` s. Returns the
+    :class:`~xcheck.trajectory.Trajectory` (compare at its final time, or at times on its grid)."""
+    from .integrators import integrate
+
+    return integrate(method, inertia, q0, omega0, dt=dt, duration=duration, torque=torque, sequence=sequence)
+
+
+def elliptic_period(inertia, omega0) -> float:
+    """Period [s] of the body rate of an asymmetric torque-free body (``4 K(m) / lam``); inf if steady."""
+    J, V = principal_axes(validate_inertia(inertia))
+    w = V.T @ np.asarray(omega0, float)
+    E2, h2 = float(w @ (J * w)), float((J * w) @ (J * w))
+    if h2 < E2 * J[1]:
+        J = J[::-1]
+    J1, J2, J3 = J
+    lam = np.sqrt(abs((J3 - J2) * (h2 - E2 * J1) / (J1 * J2 * J3)))
+    m = abs((J2 - J1) * (E2 * J3 - h2) / ((J3 - J2) * (h2 - E2 * J1)))
+    return float(4 * ellipk(m) / lam) if lam > 0 else float("inf")

@@ -1,0 +1,98 @@
+"""The one result type every runner returns, ours or an engine's."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "time_grid"]
+
+#: Relative tolerance for treating ``duration / dt`` as an integer number of steps.
+_INTEGER_STEPS_RTOL = 1e-9
+#: The most steps a single run may take (memory: 7 floats a step are stored).
+MAX_STEPS = 200_000_000
+
+
+@dataclass
+class Trajectory:
+    """An attitude trajectory on a time grid.
+
+    Attributes
+    ----------
+    t : ndarray (n+1,)
+        Times [s]; ``t[0] = 0``, and ``t[-1] = duration`` when the run completed.
+    q : ndarray (n+1, 4)
+        Attitude quaternions [w, x, y, z] body -> world, sign-continuous along the run.
+    omega : ndarray (n+1, 3)
+        Body rates in body components [rad/s].
+    status : str
+        ``"ok"``, ``"singular"`` (a parametrization reached its singularity; the trajectory holds what
+        was computed up to the last good step) or ``"failed"``.
+    message : str
+        Why the run stopped early (empty when ``"ok"``).
+    method : str
+    dt : float
+        The nominal step [s].
+    extras : dict
+        Method-specific series, e.g. ``"euler"`` (n+1, 3) for Euler-angle runs, ``"orthogonality"``
+        (n+1,) ``max |R^T R - I|`` for DCM runs.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    omega: np.ndarray
+    status: str = "ok"
+    message: str = ""
+    method: str = ""
+    dt: float = float("nan")
+    extras: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+
+def continuous_quaternions(q: np.ndarray) -> np.ndarray:
+    """Flip signs along axis 0 so that consecutive quaternions have a non-negative dot product
+    (``q`` and ``-q`` are the same attitude; plots and differences want continuity)."""
+    q = np.array(q, dtype=float, copy=True)
+    if len(q) < 2:
+        return q
+    d = np.sum(q[1:] * q[:-1], axis=-1)
+    flips = np.cumprod(np.where(d < 0, -1.0, 1.0))
+    q[1:] *= flips[:, None]
+    return q
+
+
+def step_plan(dt, duration) -> tuple[int, float]:
+    """Number of steps and the length of the last one, so that a run ends exactly at ``duration``.
+
+    When ``duration / dt`` is an integer (to 1e-9 relative) there are that many equal steps; otherwise
+    ``ceil(duration / dt)`` steps of ``dt`` of which the last is shortened to land on ``duration``.
+    """
+    try:
+        dt = float(dt)
+        duration = float(duration)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"dt and duration: expected numbers of seconds, got {dt!r} and {duration!r}") from exc
+    if not (np.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt: expected a positive finite step in seconds, got {dt!r}")
+    if not (np.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration: expected a positive finite time in seconds, got {duration!r}")
+    ratio = duration / dt
+    nearest = round(ratio)
+    n = int(nearest) if nearest >= 1 and abs(ratio - nearest) <= _INTEGER_STEPS_RTOL * ratio else int(np.ceil(ratio))
+    if n > MAX_STEPS:
+        raise ValueError(f"dt: {n} steps of {dt:g} s over {duration:g} s exceeds the limit of {MAX_STEPS}")
+    return n, duration - (n - 1) * dt
+
+
+def time_grid(n: int, dt: float, duration: float) -> np.ndarray:
+    """``[0, dt, 2 dt, ..., (n-1) dt, duration]`` (n + 1 points), each time computed, not accumulated."""
+    t = np.arange(n + 1, dtype=float) * dt
+    t[-1] = duration
+    return t
