@@ -1,0 +1,192 @@
+"""MuJoCo as a runner: the same body, initial state and torque as our integrators, MuJoCo's integrators.
+
+* The state goes in and comes out through ``qpos``/``qvel`` (free joint: quaternion [w, x, y, z] body ->
+  world, angular velocity in the body frame), never ``xmat``/``xquat``, which still hold the pose from
+  before the last ``mj_step``.
+* A torque is applied inside MuJoCo's control callback, which MuJoCo calls at every stage of its RK4
+  with that stage's ``qpos``, ``qvel`` and ``time``: RK4 keeps its order 4 with an attitude-dependent
+  torque. It is written to ``qfrc_applied`` of the free joint's rotational dofs (body-frame torque).
+  ``torque_mode="held"`` instead writes it once per step to ``xfrc_applied`` (the naive way, held over
+  the step) to show what that costs.
+* The callback is process-global: :func:`control_callback` installs and restores it. Parallel runs must
+  use processes, not threads.
+* Torque-free runs use :func:`mujoco.rollout.rollout` (one C call for the whole run).
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from mujoco import rollout
+
+from .. import rotations as rot
+from ..fields import TorqueModel, torque_eval
+from ..models import MJCFBody, load_mujoco
+from ..trajectory import Trajectory, continuous_quaternions, step_plan, time_grid
+
+__all__ = ["simulate", "control_callback", "INTEGRATORS", "mujoco_version"]
+
+INTEGRATORS = {
+    "euler": mujoco.mjtIntegrator.mjINT_EULER,
+    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+    "rk4": mujoco.mjtIntegrator.mjINT_RK4,
+}
+
+
+def mujoco_version() -> str:
+    return mujoco.__version__
+
+
+@contextmanager
+def control_callback(callback):
+    """Install ``callback(model, data)`` as MuJoCo's process-global control callback; restore the
+    previous one on exit (also on error)."""
+    previous = mujoco.get_mjcb_control()
+    mujoco.set_mjcb_control(callback)
+    try:
+        yield
+    finally:
+        mujoco.set_mjcb_control(previous)
+
+
+def _prepare(model) -> tuple[mujoco.MjModel, MJCFBody]:
+    if isinstance(model, (str, Path)):
+        return load_mujoco(model)
+    if isinstance(model, MJCFBody):
+        return load_mujoco(model.path)
+    raise ValueError(f"model: expected an MJCF path or an MJCFBody, got {type(model).__name__}")
+
+
+def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, torque=None,
+             torque_mode: str = "callback") -> Trajectory:
+    """Run MuJoCo on one free body.
+
+    Parameters
+    ----------
+    model : path or MJCFBody
+        The MJCF (checked by :func:`xcheck.models.load_mujoco`).
+    integrator : "euler" | "implicit" | "implicitfast" | "rk4"
+        MuJoCo's own (method names in the cross-check: ``mujoco-<integrator>``).
+    q0 : (4,) [w, x, y, z] body -> world; omega0 : (3,) body rate [rad/s].
+    dt, duration : float
+        [s]; the run ends exactly at ``duration`` (a shortened last step, as our integrators).
+    torque : None, TorqueModel or callable ``(t, q, omega) -> (3,)``
+        Body-frame torque [N m], evaluated at every stage (``torque_mode="callback"``) or once per step
+        and held (``"held"``).
+
+    Returns
+    -------
+    Trajectory, with the MuJoCo version in ``extras["mujoco_version"]``.
+    """
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator: unknown {integrator!r}; expected one of {', '.join(INTEGRATORS)}")
+    if torque_mode not in ("callback", "held"):
+        raise ValueError(f"torque_mode: expected 'callback' or 'held', got {torque_mode!r}")
+    m, body = _prepare(model)
+    q0 = rot.quat_normalize(q0)
+    omega0 = np.asarray(omega0, dtype=float)
+    if q0.shape != (4,) or omega0.shape != (3,) or not np.all(np.isfinite(omega0)):
+        raise ValueError("q0, omega0: expected one attitude (4,) and one finite body rate (3,) [rad/s]")
+    n, last_h = step_plan(dt, duration)
+    if isinstance(torque, TorqueModel):
+        torque.check_span(duration)
+    elif torque is not None and not callable(torque):
+        raise ValueError(f"torque: expected None, a TorqueModel or a callable (t, q, omega) -> (3,), got "
+                         f"{type(torque).__name__}")
+    m.opt.integrator = INTEGRATORS[integrator]
+    m.opt.timestep = float(dt)
+    d = mujoco.MjData(m)
+    qa, da = body.qpos_adr, body.dof_adr
+    d.qpos[qa + 3:qa + 7] = q0
+    d.qvel[da + 3:da + 6] = omega0
+    t = time_grid(n, float(dt), float(duration))
+    if torque is None:
+        qpos, qvel = _rollout_free(m, d, n, last_h)
+    else:
+        qpos, qvel = _stepped(m, d, n, last_h, body, torque, torque_mode)
+    q = continuous_quaternions(qpos[:, qa + 3:qa + 7])
+    traj = Trajectory(t=t, q=q, omega=qvel[:, da + 3:da + 6].copy(), method=f"mujoco-{integrator}", dt=float(dt),
+                      extras={"mujoco_version": mujoco.__version__})
+    bad = ~np.all(np.isfinite(q), axis=1) | ~np.all(np.isfinite(traj.omega), axis=1)
+    if np.any(bad):
+        k = int(np.argmax(bad))
+        traj.t, traj.q, traj.omega = t[:k], q[:k], traj.omega[:k]
+        traj.status = "failed"
+        traj.message = f"mujoco-{integrator}: the state became non-finite at t = {t[k]:.6g} s"
+    return traj
+
+
+def _rollout_free(m, d, n, last_h):
+    """Torque-free: ``rollout`` for the equal steps, one ``mj_step`` for a shortened last step."""
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    size = mujoco.mj_stateSize(m, spec)
+    state0 = np.empty(size)
+    mujoco.mj_getState(m, d, state0, spec)
+    equal = n if abs(last_h - m.opt.timestep) <= 1e-12 * m.opt.timestep else n - 1
+    states = np.empty((equal + 1, size))
+    states[0] = state0
+    if equal:
+        out, _ = rollout.rollout(m, d, state0[None, :], nstep=equal)
+        states[1:] = out[0]
+    if equal < n:  # the shortened last step
+        mujoco.mj_setState(m, d, states[equal], spec)
+        m.opt.timestep = last_h
+        mujoco.mj_step(m, d)
+        last = np.empty(size)
+        mujoco.mj_getState(m, d, last, spec)
+        states = np.vstack([states, last])
+    return states[:, 1:1 + m.nq], states[:, 1 + m.nq:1 + m.nq + m.nv]
+
+
+def _stepped(m, d, n, last_h, body, torque, torque_mode):
+    """A Python loop of ``mj_step`` with the torque applied in the control callback (or held)."""
+    qa, da = body.qpos_adr, body.dof_adr
+    qpos_out = np.empty((n + 1, m.nq))
+    qvel_out = np.empty((n + 1, m.nv))
+    qpos_out[0], qvel_out[0] = d.qpos, d.qvel
+    # views into MjData's fixed buffers, made once
+    q_view = d.qpos[qa + 3:qa + 7]
+    w_view = d.qvel[da + 3:da + 6]
+    tau_view = d.qfrc_applied[da + 3:da + 6]
+    if isinstance(torque, TorqueModel):
+        kind, P, T = torque.kernel_data()
+
+        def body_torque(t, out):
+            torque_eval(kind, P, T, t, q_view, w_view, out)
+    else:
+        def body_torque(t, out):
+            out[:] = np.asarray(torque(t, q_view / np.linalg.norm(q_view), w_view.copy()), dtype=float)
+
+    if torque_mode == "callback":
+        def callback(model, data):
+            body_torque(data.time, tau_view)
+
+        with control_callback(callback):
+            _loop(m, d, n, last_h, qpos_out, qvel_out)
+    else:
+        tau = np.empty(3)
+        force = d.xfrc_applied[body.body_id]
+
+        def before_step():
+            body_torque(d.time, tau)
+            force[3:6] = rot.quat_rotate(q_view, tau)  # xfrc_applied takes world-frame torque
+
+        _loop(m, d, n, last_h, qpos_out, qvel_out, before_step)
+    return qpos_out, qvel_out
+
+
+def _loop(m, d, n, last_h, qpos_out, qvel_out, before_step=None):
+    dt = m.opt.timestep
+    for k in range(n):
+        if k == n - 1:
+            m.opt.timestep = last_h
+        if before_step is not None:
+            before_step()
+        mujoco.mj_step(m, d)
+        qpos_out[k + 1] = d.qpos
+        qvel_out[k + 1] = d.qvel
+    m.opt.timestep = dt

@@ -1,0 +1,156 @@
+"""MJCF models: load a single free rigid body for the cross-check, refusing what is out of scope.
+
+The MJCF is the single source of truth for every engine: the inertia (``<inertial>``, any orientation),
+the mass and the permanent magnetic dipole, stored as ``<custom><numeric name="xcheck_dipole"
+data="mx my mz"/></custom>`` [A m^2] in body components.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from . import rotations as rot
+from .body import RigidBody
+
+__all__ = ["ModelError", "MJCFBody", "load_body", "load_mujoco", "DIPOLE_NUMERIC", "BUNDLED_MODELS"]
+
+#: The name of the ``<custom><numeric>`` that holds the permanent dipole [A m^2].
+DIPOLE_NUMERIC = "xcheck_dipole"
+
+#: The folder of the bundled models and scenarios.
+BUNDLED_MODELS = Path(__file__).resolve().parent.parent / "models"
+
+
+class ModelError(ValueError):
+    """An MJCF file that xcheck cannot use; the message names the file and the reason."""
+
+
+@dataclass(frozen=True)
+class MJCFBody(RigidBody):
+    """A :class:`~xcheck.body.RigidBody` read from an MJCF file, with where it came from.
+
+    ``notes`` lists what was changed to bring the model into scope (e.g. gravity switched off);
+    ``body_id``, ``qpos_adr`` and ``dof_adr`` locate the free body in the MuJoCo model.
+    """
+
+    path: str = ""
+    notes: tuple = ()
+    body_id: int = 1
+    qpos_adr: int = 0
+    dof_adr: int = 0
+    inertia_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+
+def load_body(path) -> MJCFBody:
+    """The rigid body of an MJCF file (see :func:`load_mujoco`)."""
+    return load_mujoco(path)[1]
+
+
+def load_mujoco(path) -> tuple[mujoco.MjModel, MJCFBody]:
+    """Compile an MJCF file and check it is one free rigid body.
+
+    Refused (:class:`ModelError` naming the file and the reason): a parse or compile error (MuJoCo's
+    message, with its line), no free joint, any other joint, more than one moving body, equality
+    constraints, actuators, possible contacts, fluid forces (density or viscosity), damping, armature
+    or friction loss on the free joint. Gravity is switched off instead, with a note: a uniform field
+    exerts no torque about the centre of mass, so the attitude motion is unchanged.
+
+    Returns the prepared :class:`mujoco.MjModel` and the :class:`MJCFBody`.
+    """
+    path = Path(path)
+    where = str(path)
+    if not path.is_file():
+        raise ModelError(f"{where}: no such MJCF file")
+    try:
+        model = mujoco.MjModel.from_xml_path(str(path))
+    except ValueError as exc:  # MuJoCo's parse/compile error, which names the line
+        raise ModelError(f"{where}: MuJoCo could not load it: {str(exc).strip()}") from None
+    notes = []
+
+    def refuse(reason):
+        raise ModelError(f"{where}: {reason}")
+
+    def name(obj, i):
+        return mujoco.mj_id2name(model, obj, i) or f"#{i}"
+
+    free = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE]
+    if not free:
+        refuse("no free joint: xcheck needs one body with <freejoint/>")
+    for j in range(model.njnt):
+        if model.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE:
+            kind = mujoco.mjtJoint(model.jnt_type[j]).name.removeprefix("mjJNT_").lower()
+            refuse(f"joint '{name(mujoco.mjtObj.mjOBJ_JOINT, j)}' is a {kind} joint: only one free joint is "
+                   "supported")
+    if len(free) > 1:
+        refuse(f"{len(free)} free joints: more than one moving body")
+    jnt = free[0]
+    body_id = int(model.jnt_bodyid[jnt])
+    body_name = name(mujoco.mjtObj.mjOBJ_BODY, body_id)
+    for b in range(1, model.nbody):
+        if b != body_id and model.body_rootid[b] == model.body_rootid[body_id]:
+            refuse(f"body '{name(mujoco.mjtObj.mjOBJ_BODY, b)}' is attached to the free body '{body_name}': more "
+                   "than one moving body (merge their inertia into one <inertial>)")
+    if model.neq:
+        refuse(f"{model.neq} equality constraint(s): out of scope (one free rigid body)")
+    if model.nu:
+        refuse(f"{model.nu} actuator(s): xcheck applies its own torques; remove the <actuator> section")
+    dof = int(model.jnt_dofadr[jnt])
+    for what, values in (("damping", model.dof_damping), ("armature", model.dof_armature),
+                         ("frictionloss", model.dof_frictionloss)):
+        if np.any(values[dof:dof + 6] != 0):
+            refuse(f"the free joint has {what} {values[dof:dof + 6].tolist()}: it would change the rotational "
+                   "dynamics; set it to 0")
+    if model.opt.density != 0 or model.opt.viscosity != 0:
+        refuse(f"<option density={model.opt.density:g} viscosity={model.opt.viscosity:g}>: fluid forces would add "
+               "torque; set both to 0")
+    if not model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT:
+        pair = _possible_contact(model)
+        if pair is not None:
+            refuse(f"contacts are enabled and geoms '{pair[0]}' and '{pair[1]}' can collide: add "
+                   "<flag contact=\"disable\"/> to <option>, or set their contype/conaffinity to 0")
+    if np.any(model.opt.gravity != 0):
+        notes.append(f"gravity {model.opt.gravity.tolist()} m/s^2 switched off: a uniform field exerts no torque "
+                     "about the centre of mass")
+        model.opt.gravity[:] = 0.0
+
+    moments = model.body_inertia[body_id].copy()
+    R = rot.quat_to_dcm(model.body_iquat[body_id])
+    inertia = R @ np.diag(moments) @ R.T
+    dipole = np.zeros(3)
+    nid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_NUMERIC, DIPOLE_NUMERIC)
+    if nid >= 0:
+        size = int(model.numeric_size[nid])
+        if size != 3:
+            refuse(f"<numeric name=\"{DIPOLE_NUMERIC}\"> has {size} values; expected 3 (the dipole in A m^2, body "
+                   "components)")
+        adr = int(model.numeric_adr[nid])
+        dipole = model.numeric_data[adr:adr + 3].copy()
+    try:
+        body = MJCFBody(inertia=inertia, mass=float(model.body_mass[body_id]), dipole=dipole,
+                        name=body_name if not body_name.startswith("#") else path.stem, path=where,
+                        notes=tuple(notes), body_id=body_id, qpos_adr=int(model.jnt_qposadr[jnt]), dof_adr=dof,
+                        inertia_offset=model.body_ipos[body_id].copy())
+    except ValueError as exc:
+        raise ModelError(f"{where}: body '{body_name}': {exc}") from None
+    for note in notes:
+        warnings.warn(f"{where}: {note}", stacklevel=2)
+    return model, body
+
+
+def _possible_contact(model):
+    """The names of a geom pair (from different bodies) whose contype/conaffinity allow contact, or None."""
+    if model.npair:
+        return ("<contact><pair>", "explicitly listed")
+    for g1 in range(model.ngeom):
+        for g2 in range(g1 + 1, model.ngeom):
+            if model.geom_bodyid[g1] == model.geom_bodyid[g2]:
+                continue
+            if (model.geom_contype[g1] & model.geom_conaffinity[g2]) or \
+                    (model.geom_contype[g2] & model.geom_conaffinity[g1]):
+                return tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"#{g}" for g in (g1, g2))
+    return None

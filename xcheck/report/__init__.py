@@ -1,0 +1,1 @@
+"""Reports: results as JSON, Markdown and a self-contained HTML page with plots (matplotlib, Agg)."""
