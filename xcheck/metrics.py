@@ -24,10 +24,10 @@ __all__ = [
 #: Errors above this [rad] are pre-asymptotic (beyond the small-error regime where e ~ C dt^p holds)
 #: and are not used to fit an order.
 ORDER_CEILING = 1e-2
-#: Errors below this [rad] are at the round-off floor (measured here: 1e-13 to 5e-13 rad after
-#: 40 960 steps of 10 s runs) and are not used to fit an order.
+#: Errors below this [rad] are not used to measure an order: the round-off of a 10 s run in double
+#: precision reaches 1e-13 to 2e-11 rad here (it grows with the number of steps).
 ORDER_FLOOR = 1e-12
-#: The order is fitted on this many finest admissible steps.
+#: The order is the median of this many finest local orders.
 ORDER_POINTS = 3
 
 
@@ -78,11 +78,11 @@ def invariant_drift(inertia, traj: Trajectory) -> dict:
 
 @dataclass
 class OrderFit:
-    """A least-squares fit ``log e = p log dt + c`` on the asymptotic points of a step sweep."""
+    """The observed order of a step sweep and how it was measured."""
 
     order: float | None
     used: list  # the dt values used
-    local_orders: list  # log2 ratios of consecutive admissible points
+    local_orders: list  # log(e_i / e_i+1) / log(dt_i / dt_i+1) between consecutive used steps
     note: str
 
 
@@ -90,23 +90,33 @@ def observed_order(dts, errors, *, ceiling: float = ORDER_CEILING, floor: float 
                    points: int = ORDER_POINTS) -> OrderFit:
     """Observed order of convergence of a step sweep.
 
-    The rule: a point is admissible when its error is finite and within ``[floor, ceiling]``: above the
-    ceiling the error is pre-asymptotic (or saturated: attitude errors cannot exceed pi), below the
-    floor it is round-off. The order is the least-squares slope of ``log e`` against ``log dt`` over the
-    ``points`` finest admissible steps (the most asymptotic ones); with fewer than two it is None and
-    ``note`` says why.
+    The rule, on the steps ordered from coarse to fine:
+
+    1. round-off: the steps after the smallest error are dropped (there the error grows again as the
+       steps multiply), and so are errors below ``floor`` (:data:`ORDER_FLOOR`, or a study's own floor
+       that also covers its reference's accuracy);
+    2. pre-asymptotic: errors above ``ceiling`` are dropped (beyond the small-error regime; attitude
+       errors also saturate at pi);
+    3. the local orders ``log(e_i/e_i+1) / log(dt_i/dt_i+1)`` of consecutive remaining steps are formed,
+       and the order is the median of the ``points`` finest ones: the median is not moved by one odd
+       pair (a chart switch, the last pre-asymptotic wiggle). With no pair, it is None.
     """
     dts = np.asarray(dts, dtype=float)
     errors = np.asarray([np.nan if e is None else e for e in errors], dtype=float)
     order = np.argsort(dts)[::-1]
     dts, errors = dts[order], errors[order]
-    ok = np.isfinite(errors) & (errors >= floor) & (errors <= ceiling)
-    used_dt, used_e = dts[ok][-points:], errors[ok][-points:]
+    finite = np.isfinite(errors)
+    if not np.any(finite):
+        return OrderFit(None, [], [], "no run completed: no order measured")
+    smallest = int(np.nanargmin(np.where(finite, errors, np.nan)))
+    ok = finite & (np.arange(len(errors)) <= smallest) & (errors >= floor) & (errors <= ceiling)
+    used_dt, used_e = dts[ok], errors[ok]
     local = [float(np.log(used_e[i] / used_e[i + 1]) / np.log(used_dt[i] / used_dt[i + 1]))
              for i in range(len(used_dt) - 1)]
-    if len(used_dt) < 2:
+    if not local:
         return OrderFit(None, used_dt.tolist(), local,
-                        f"fewer than two errors between {floor:g} and {ceiling:g} rad: no order fitted")
-    slope = np.polyfit(np.log(used_dt), np.log(used_e), 1)[0]
-    return OrderFit(float(slope), used_dt.tolist(), local,
-                    f"least squares over the {len(used_dt)} finest steps with errors in [{floor:g}, {ceiling:g}] rad")
+                        f"fewer than two steps with decreasing errors in [{floor:.2g}, {ceiling:g}] rad: no order "
+                        "measured")
+    finest = local[-points:]
+    return OrderFit(float(np.median(finest)), used_dt.tolist(), local,
+                    f"median of the local orders between dt = {used_dt[-len(finest) - 1]:.4g} and {used_dt[-1]:.4g} s")

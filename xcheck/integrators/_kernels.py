@@ -57,6 +57,30 @@ else:
     # numba's pedantic SSA check misfires on IR-inlined code ("variable ... is not in scope"); harmless
     warnings.filterwarnings("ignore", category=numba.core.errors.NumbaIRAssumptionWarning)
 
+    def _invalidate_stale_cache():
+        """numba's cache checks only a function's own file; these kernels compile in the torque code of
+        fields.py, so their cache entries must also go when fields.py changes (a development hazard:
+        an installed release changes every file at once)."""
+        import hashlib
+        from pathlib import Path
+
+        deps = [Path(__file__), Path(fields.__file__)]
+        stamp = hashlib.sha256(b"".join(p.read_bytes() for p in deps)).hexdigest()
+        cache = Path(__file__).parent / "__pycache__"
+        marker = cache / "_kernels.deps"
+        try:
+            if marker.is_file() and marker.read_text() == stamp:
+                return
+            for f in list(cache.glob("_kernels.*.nbi")) + list(cache.glob("_kernels.*.nbc")):
+                f.unlink(missing_ok=True)
+            cache.mkdir(exist_ok=True)
+            marker.write_text(stamp)
+        except OSError:
+            pass  # a read-only install: numba keeps its cache elsewhere, and releases change every file
+
+    if not INLINED:
+        _invalidate_stale_cache()
+
     # The stage loop and `run` are always inlined into the per-method entry points at the end (that is
     # what makes the method a compile-time constant). Helpers and stage derivatives are compiled once
     # and called (quick to compile: the single-trajectory path) -- or, in the "_inlined" twin used by the

@@ -1,0 +1,64 @@
+"""Every method of the cross-check, ours and MuJoCo's, as a runner with one signature:
+``runner.run(context, dt) -> Trajectory``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from .integrators import METHODS, integrate
+from .trajectory import Trajectory
+
+__all__ = ["Runner", "RUNNERS", "RunContext"]
+
+
+@dataclass
+class RunContext:
+    """What a runner needs: the body (inertia from the MJCF), the MJCF path, the initial state, the
+    duration, the torque model (or None) and the Euler sequence of Euler-angle methods."""
+
+    inertia: object
+    model_path: str
+    q0: object
+    omega0: object
+    duration: float
+    torque: object = None
+    sequence: str = "323"
+
+
+@dataclass(frozen=True)
+class Runner:
+    name: str
+    engine: str  # "xcheck" | "mujoco"
+    expected_order: int | None
+    summary: str
+    run: Callable[[RunContext, float], Trajectory]
+
+
+def _ours(name):
+    def run(ctx: RunContext, dt: float) -> Trajectory:
+        return integrate(name, ctx.inertia, ctx.q0, ctx.omega0, dt=dt, duration=ctx.duration, torque=ctx.torque,
+                         sequence=ctx.sequence)
+    return run
+
+
+def _mujoco(integrator):
+    def run(ctx: RunContext, dt: float) -> Trajectory:
+        from .engines.mujoco import simulate
+
+        return simulate(ctx.model_path, integrator=integrator, q0=ctx.q0, omega0=ctx.omega0, dt=dt,
+                        duration=ctx.duration, torque=ctx.torque)
+    return run
+
+
+RUNNERS: dict[str, Runner] = {name: Runner(name, "xcheck", m.expected_order, m.summary, _ours(name))
+                              for name, m in METHODS.items()}
+RUNNERS.update({
+    f"mujoco-{i}": Runner(f"mujoco-{i}", "mujoco", order, summary, _mujoco(i))
+    for i, order, summary in [
+        ("rk4", 4, "MuJoCo's RK4 (torque in the control callback at every stage)"),
+        ("euler", 1, "MuJoCo's semi-implicit Euler"),
+        ("implicit", 1, "MuJoCo's implicit-in-velocity Euler"),
+        ("implicitfast", 1, "MuJoCo's implicitfast (no Coriolis derivatives)"),
+    ]
+})

@@ -1,0 +1,334 @@
+"""Scenarios: a TOML file becomes plain data (model, initial state, torque, study, checks).
+
+Every input error is a :class:`ScenarioError` naming the file and the key, e.g.
+``models/scenarios/x.toml: [initial] euler_angles_deg: expected 3 numbers, got 2``.
+The format is documented in the README ("Scenario files").
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import rotations as rot
+from .models import BUNDLED_MODELS
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = ["Scenario", "ScenarioError", "load_scenario", "bundled_scenarios", "resolve_scenario",
+           "DEFAULT_STEPS", "QUICK_STEPS", "SCENARIO_DIR"]
+
+SCENARIO_DIR = BUNDLED_MODELS / "scenarios"
+#: Seed 004 §3.3: 1/2, 1/4, ..., 1/4096 s.
+DEFAULT_STEPS = tuple(2.0**-k for k in range(1, 13))
+#: ``--quick``: five steps where every fourth-order method is in its asymptotic range.
+QUICK_STEPS = tuple(2.0**-k for k in range(4, 9))
+
+DEFAULT_CHECKS = {
+    "order_tolerance": 0.3,  # allowed expected - observed order (a defect lowers the order)
+    "order_excess": 1.0,  # allowed observed - expected order (pre-asymptotic: the next term dominates)
+    "final_error": 1e-9,  # [rad] at the finest step, for methods of order >= 4
+    "invariant_tolerance": 1e-9,  # relative energy / momentum drift at the finest step (torque free)
+    "agreement": 1e-9,  # [rad] MuJoCo RK4 against our best method at the finest step
+    "expected_to_fail": [],  # methods whose checks are expected to fail (e.g. Euler angles at gimbal lock)
+}
+
+
+class ScenarioError(ValueError):
+    """A scenario file that cannot be used; the message names the file and the key."""
+
+
+@dataclass
+class Scenario:
+    """A scenario as plain data (see the README for the TOML format)."""
+
+    name: str
+    path: Path
+    model: Path
+    duration: float
+    q0: np.ndarray
+    omega0: np.ndarray
+    sequence: str = "323"
+    euler0: np.ndarray | None = None  # initial Euler angles [rad] when given that way
+    description: str = ""
+    torque: dict | None = None  # the [torque] table as read (kind, field, parameters)
+    steps: tuple = DEFAULT_STEPS
+    quick_steps: tuple = QUICK_STEPS
+    methods: list | None = None  # None: every applicable method
+    reference: str = "exact"
+    reference_method: str = "lie-rkmk4"
+    reference_dt: float = 1e-4
+    checks: dict = field(default_factory=lambda: dict(DEFAULT_CHECKS))
+
+
+class _Reader:
+    """Typed access to one TOML table, with errors naming the file and the key."""
+
+    def __init__(self, path: Path, table: dict, section: str):
+        self.path, self.table, self.section = path, table, section
+        self.used: set[str] = set()
+
+    def where(self, key):
+        prefix = f"[{self.section}] " if self.section else ""
+        return f"{self.path}: {prefix}{key}"
+
+    def fail(self, key, message):
+        raise ScenarioError(f"{self.where(key)}: {message}")
+
+    def has(self, key):
+        return key in self.table
+
+    def get(self, key, kind, default=None, required=False):
+        self.used.add(key)
+        if key not in self.table:
+            if required:
+                self.fail(key, "missing (required)")
+            return default
+        value = self.table[key]
+        if kind == "number":
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                self.fail(key, f"expected a number, got {type(value).__name__} {value!r}")
+            if not math.isfinite(value):
+                self.fail(key, f"expected a finite number, got {value!r}")
+            return float(value)
+        if kind == "string":
+            if not isinstance(value, str):
+                self.fail(key, f"expected a string, got {type(value).__name__} {value!r}")
+            return value
+        if kind == "strings":
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                self.fail(key, f"expected a list of strings, got {value!r}")
+            return list(value)
+        if kind == "table":
+            if not isinstance(value, dict):
+                self.fail(key, f"expected a table [{key}], got {type(value).__name__}")
+            return value
+        if isinstance(kind, tuple) and kind[0] == "vector":
+            n = kind[1]
+            if not isinstance(value, list) or len(value) != n:
+                self.fail(key, f"expected {n} numbers, got {value!r}")
+            for v in value:
+                if isinstance(v, bool) or not isinstance(v, (int, float)):
+                    self.fail(key, f"expected {n} numbers, got {value!r}")
+                if not math.isfinite(v):
+                    self.fail(key, f"expected finite numbers, got {value!r}")
+            return np.array(value, dtype=float)
+        if kind == "numbers":
+            if not isinstance(value, list) or not value:
+                self.fail(key, f"expected a non-empty list of numbers, got {value!r}")
+            for v in value:
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                    self.fail(key, f"expected finite numbers, got {value!r}")
+            return [float(v) for v in value]
+        raise AssertionError(kind)
+
+    def positive(self, key, default=None, required=False):
+        value = self.get(key, "number", default, required)
+        if value is not None and value <= 0:
+            self.fail(key, f"expected a positive number, got {value!r}")
+        return value
+
+    def path_(self, key, required=False):
+        value = self.get(key, "string", None, required)
+        if value is None:
+            return None
+        p = (self.path.parent / value).resolve()
+        if not p.is_file():
+            self.fail(key, f"no such file {value!r} (resolved to {p})")
+        return p
+
+    def finish(self):
+        unknown = sorted(set(self.table) - self.used)
+        if unknown:
+            self.fail(unknown[0], f"unknown key (expected one of: {', '.join(sorted(self.used))})")
+
+
+_TOP_KEYS = ("name", "description", "model", "duration", "initial", "torque", "study", "checks")
+
+
+def load_scenario(path) -> Scenario:
+    """Read and validate a scenario TOML file (relative paths are relative to the file)."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read the scenario ({exc.strerror})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    top = _Reader(path, data, "")
+    for key in data:
+        if key not in _TOP_KEYS:
+            top.fail(key, f"unknown key (expected one of: {', '.join(_TOP_KEYS)})")
+    name = top.get("name", "string", required=True)
+    description = top.get("description", "string", "")
+    model = top.path_("model", required=True)
+    duration = top.positive("duration", required=True)
+
+    ini = _Reader(path, top.get("initial", "table", required=True), "initial")
+    euler0 = None
+    sequence = "323"
+    if ini.has("quaternion"):
+        q = ini.get("quaternion", ("vector", 4))
+        if np.linalg.norm(q) < 1e-12:
+            ini.fail("quaternion", "a zero quaternion is not an attitude")
+        q0 = q / np.linalg.norm(q)
+        if ini.has("angular_velocity") == ini.has("angular_velocity_deg"):
+            ini.fail("angular_velocity", "give exactly one of angular_velocity [rad/s] or angular_velocity_deg [deg/s]")
+        omega0 = ini.get("angular_velocity", ("vector", 3)) if ini.has("angular_velocity") else \
+            np.radians(ini.get("angular_velocity_deg", ("vector", 3)))
+        if ini.has("euler_sequence"):
+            sequence = ini.get("euler_sequence", "string")
+    elif ini.has("euler_angles_deg"):
+        sequence = ini.get("euler_sequence", "string", "323")
+        euler0 = np.radians(ini.get("euler_angles_deg", ("vector", 3)))
+        rates = ini.get("euler_rates", ("vector", 3), required=True)
+        q0 = None
+        omega0 = None
+    else:
+        ini.fail("quaternion", "missing: give either quaternion + angular_velocity, or euler_sequence + "
+                               "euler_angles_deg + euler_rates")
+    if sequence not in rot.EULER_SEQUENCES:
+        ini.fail("euler_sequence", f"expected one of {', '.join(rot.EULER_SEQUENCES)}, got {sequence!r}")
+    if euler0 is not None:
+        q0 = rot.euler_to_quat(euler0, sequence)
+        omega0 = rot.euler_rates_to_omega(euler0, rates, sequence)
+    ini.finish()
+
+    torque = None
+    if "torque" in data:
+        torque = _read_torque(_Reader(path, top.get("torque", "table"), "torque"))
+
+    st = _Reader(path, top.get("study", "table", {}), "study")
+    steps = tuple(st.get("steps", "numbers", list(DEFAULT_STEPS)))
+    quick_steps = tuple(st.get("quick_steps", "numbers", list(QUICK_STEPS)))
+    for key, values in (("steps", steps), ("quick_steps", quick_steps)):
+        if any(s <= 0 for s in values):
+            st.fail(key, f"expected positive steps in seconds, got {list(values)!r}")
+        if len(set(values)) != len(values):
+            st.fail(key, "steps must be distinct")
+    methods = st.get("methods", "strings", None)
+    reference = st.get("reference", "string", "exact")
+    if reference not in ("exact", "dop853", "fine"):
+        st.fail("reference", f"expected 'exact', 'dop853' or 'fine', got {reference!r}")
+    if reference == "exact" and torque is not None:
+        st.fail("reference", "'exact' is the torque-free solution; this scenario has a [torque]: use 'dop853' or "
+                             "'fine'")
+    reference_method = st.get("reference_method", "string", "lie-rkmk4")
+    reference_dt = st.positive("reference_dt", 1e-4)
+    from .runners import RUNNERS
+
+    for key, names in (("methods", methods or []), ("reference_method", [reference_method])):
+        for m in names:
+            if m not in RUNNERS:
+                st.fail(key, f"unknown method {m!r}; expected one of {', '.join(RUNNERS)}")
+    st.finish()
+
+    ck = _Reader(path, top.get("checks", "table", {}), "checks")
+    checks = dict(DEFAULT_CHECKS)
+    for key in ("order_tolerance", "order_excess", "final_error", "invariant_tolerance", "agreement"):
+        checks[key] = ck.positive(key, DEFAULT_CHECKS[key])
+    checks["expected_to_fail"] = ck.get("expected_to_fail", "strings", [])
+    ck.finish()
+
+    scenario = Scenario(name=name, path=path, model=model, duration=duration, q0=q0, omega0=omega0,
+                        sequence=sequence, euler0=euler0, description=description, torque=torque, steps=steps,
+                        quick_steps=quick_steps, methods=methods, reference=reference,
+                        reference_method=reference_method, reference_dt=reference_dt, checks=checks)
+    # the model must load, and the torque must be buildable for this duration
+    from .models import ModelError, load_body
+
+    try:
+        body = load_body(model)
+    except ModelError as exc:
+        raise ScenarioError(f"{path}: model: {exc}") from None
+    try:
+        build_torque(scenario, body)
+    except ValueError as exc:
+        raise ScenarioError(f"{path}: [torque]: {exc}") from None
+    return scenario
+
+
+def _read_torque(tq: _Reader) -> dict:
+    kind = tq.get("kind", "string", required=True)
+    out = {"kind": kind}
+    if kind == "constant":
+        out["torque"] = tq.get("torque", ("vector", 3), required=True).tolist()
+    elif kind == "magnetic":
+        field_name = tq.get("field", "string", required=True)
+        out["field"] = field_name
+        if tq.has("dipole"):
+            out["dipole"] = tq.get("dipole", ("vector", 3)).tolist()
+        if field_name in ("body-table", "world-table"):
+            out["table"] = str(tq.path_("table", required=True))
+        elif field_name in ("orbit-dipole", "igrf"):
+            for key in ("altitude_km", "inclination_deg", "raan_deg", "arg_latitude_deg", "earth_angle_deg"):
+                if tq.has(key):
+                    out[key] = tq.get(key, "number")
+            if field_name == "igrf" and tq.has("epoch"):
+                out["epoch"] = tq.get("epoch", "string")
+        elif field_name == "uniform":
+            out["H_world"] = tq.get("H_world", ("vector", 3), required=True).tolist()
+        else:
+            tq.fail("field", f"expected 'body-table', 'orbit-dipole', 'igrf', 'uniform' or 'world-table', got "
+                             f"{field_name!r}")
+    else:
+        tq.fail("kind", f"expected 'magnetic' or 'constant', got {kind!r}")
+    tq.finish()
+    return out
+
+
+def build_torque(scenario: Scenario, body):
+    """The :class:`~xcheck.fields.TorqueModel` of a scenario (None when torque free)."""
+    from . import fields
+
+    spec = scenario.torque
+    if spec is None:
+        return None
+    if spec["kind"] == "constant":
+        return fields.ConstantTorque(spec["torque"])
+    dipole = np.array(spec.get("dipole", body.dipole), dtype=float)
+    if not np.any(dipole):
+        raise ValueError(f"magnetic torque needs a dipole: none in {body.path} (<custom><numeric "
+                         f"name=\"xcheck_dipole\">) and no 'dipole' key")
+    name = spec["field"]
+    orbit = {k: spec[k] for k in ("altitude_km", "inclination_deg", "raan_deg", "arg_latitude_deg",
+                                  "earth_angle_deg") if k in spec}
+    if name == "body-table":
+        field_model = fields.BodyFieldTable(fields.load_field_table(spec["table"]), source=spec["table"])
+    elif name == "world-table":
+        field_model = fields.WorldFieldTable(fields.load_field_table(spec["table"]), source=spec["table"])
+    elif name == "orbit-dipole":
+        field_model = fields.OrbitDipoleField(**orbit)
+    elif name == "igrf":
+        field_model = fields.IGRFField(duration=scenario.duration, **orbit,
+                                       **({"epoch": spec["epoch"]} if "epoch" in spec else {}))
+    else:
+        field_model = fields.UniformField(spec["H_world"])
+    torque = fields.MagneticTorque(dipole, field_model)
+    torque.check_span(scenario.duration)
+    return torque
+
+
+def bundled_scenarios() -> dict[str, Path]:
+    """Bundled scenario names -> files (``models/scenarios/*.toml``), in file-name order."""
+    return {p.stem: p for p in sorted(SCENARIO_DIR.glob("*.toml"))}
+
+
+def resolve_scenario(name_or_path) -> Scenario:
+    """A bundled scenario by name, or a scenario file by path."""
+    bundled = bundled_scenarios()
+    if str(name_or_path) in bundled:
+        return load_scenario(bundled[str(name_or_path)])
+    path = Path(name_or_path)
+    if path.suffix == ".toml" or path.exists():
+        return load_scenario(path)
+    raise ScenarioError(f"{name_or_path}: not a bundled scenario ({', '.join(bundled)}) nor a .toml file")

@@ -1,0 +1,366 @@
+"""Convergence studies: every method x every step of a scenario against its reference, in worker
+processes (deterministic: each run is independent), producing results of schema ``xcheck.convergence/1``
+plus the sampled series the report plots."""
+
+from __future__ import annotations
+
+import math
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+import multiprocessing
+
+import numpy as np
+
+from . import rotations as rot
+from .metrics import ORDER_CEILING, ORDER_FLOOR, errors_against, invariant_drift, observed_order
+from .reference import dop853, exact_torque_free
+from .runners import RUNNERS, RunContext
+from .scenario import Scenario, build_torque
+from .trajectory import time_grid, step_plan
+from .versions import versions
+
+__all__ = ["run_study", "StudyResult", "PLOT_SAMPLE_DT"]
+
+SCHEMA = "xcheck.convergence/1"
+#: Series kept for plots and CSV are sampled at this spacing [s] (or every step, if coarser).
+PLOT_SAMPLE_DT = 1 / 256
+
+
+@dataclass
+class StudyResult:
+    """``data``: the JSON results (schema ``xcheck.convergence/1``); ``series``: per method, the sampled
+    finest good run (``t``, ``q``, ``omega``, ``attitude_error``, ``energy``, ``momentum``, ``euler``) and
+    the reference on the same times, for plots and CSV."""
+
+    data: dict
+    series: dict = field(default_factory=dict)
+    scenario: Scenario | None = None
+
+    @property
+    def passed(self) -> bool:
+        return bool(self.data["passed"])
+
+
+def default_methods(scenario: Scenario) -> list[str]:
+    return list(scenario.methods) if scenario.methods else list(RUNNERS)
+
+
+def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = False, workers: int | None = None,
+              progress=None, pool=None) -> StudyResult:
+    """Run the convergence study of ``scenario``.
+
+    ``methods``/``steps`` override the scenario's; ``quick`` uses its ``quick_steps``. ``workers``
+    processes (default: the CPU count; 1 runs in this process). ``progress(done, total, label)`` is called
+    as runs finish. ``pool`` reuses an existing executor (the report runs all scenarios in one).
+    """
+    methods = list(methods) if methods else default_methods(scenario)
+    for m in methods:
+        if m not in RUNNERS:
+            raise ValueError(f"methods: unknown {m!r}; expected one of {', '.join(RUNNERS)}")
+    steps = sorted((float(s) for s in (steps or (scenario.quick_steps if quick else scenario.steps))), reverse=True)
+    for s in steps:
+        if not (math.isfinite(s) and s > 0):
+            raise ValueError(f"steps: expected positive finite steps in seconds, got {s!r}")
+    tasks = [(scenario, m, tuple(steps)) for m in methods]
+    results = _map(_run_method, tasks, workers=workers, progress=progress, pool=pool,
+                   labels=[f"{scenario.name}: {m}" for m in methods])
+    return assemble(scenario, methods, steps, results)
+
+
+def _map(fn, tasks, *, workers, progress, pool, labels):
+    total = len(tasks)
+    if pool is None and (workers == 1 or total == 1):
+        out = []
+        for i, task in enumerate(tasks):
+            out.append(fn(*task))
+            if progress:
+                progress(i + 1, total, labels[i])
+        return out
+    own = pool is None
+    pool = pool or ProcessPoolExecutor(max_workers=workers or None, mp_context=multiprocessing.get_context("spawn"))
+    try:
+        futures = [pool.submit(fn, *task) for task in tasks]
+        out = [None] * total
+        done = 0
+        for i, fut in enumerate(futures):
+            out[i] = fut.result()
+            done += 1
+            if progress:
+                progress(done, total, labels[i])
+        return out
+    finally:
+        if own:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+# ------------------------------------------------------------------------------------------------
+# in a worker
+# ------------------------------------------------------------------------------------------------
+_CACHE: dict = {}
+
+
+def _key(scenario: Scenario):
+    return (str(scenario.path), scenario.name, str(scenario.model), scenario.duration, tuple(scenario.q0),
+            tuple(scenario.omega0), scenario.sequence, repr(scenario.torque), scenario.reference,
+            scenario.reference_method, scenario.reference_dt)
+
+
+def _cached(kind, scenario, make):
+    """Per-process cache of a scenario's run context and reference (a worker runs several methods)."""
+    key = (kind, _key(scenario))
+    if key not in _CACHE:
+        if len(_CACHE) > 16:
+            _CACHE.clear()
+        _CACHE[key] = make()
+    return _CACHE[key]
+
+
+def _context(scenario: Scenario) -> RunContext:
+    def make():
+        from .models import load_body
+
+        body = load_body(scenario.model)
+        return RunContext(inertia=body.inertia, model_path=str(scenario.model), q0=scenario.q0,
+                          omega0=scenario.omega0, duration=scenario.duration, torque=build_torque(scenario, body),
+                          sequence=scenario.sequence)
+    return _cached("context", scenario, make)
+
+
+class _Reference:
+    """The reference of a scenario, evaluated on any run's grid (cached per process)."""
+
+    def __init__(self, scenario: Scenario, ctx: RunContext):
+        self.kind = scenario.reference
+        self.scenario, self.ctx = scenario, ctx
+        if self.kind == "dop853":
+            from scipy.integrate import solve_ivp
+
+            from .reference import rigid_body_rhs
+
+            self.sol = solve_ivp(rigid_body_rhs(ctx.inertia, ctx.torque), (0.0, ctx.duration),
+                                 np.concatenate([ctx.q0, ctx.omega0]), method="DOP853", rtol=1e-13, atol=1e-15,
+                                 dense_output=True)
+            if self.sol.status != 0:
+                raise RuntimeError(f"{scenario.path}: the DOP853 reference failed: {self.sol.message}")
+        elif self.kind == "fine":
+            runner = RUNNERS[scenario.reference_method]
+            self.fine = runner.run(ctx, scenario.reference_dt)
+            if not self.fine.ok:
+                raise RuntimeError(f"{scenario.path}: the fine reference ({scenario.reference_method} at "
+                                   f"{scenario.reference_dt:g} s) did not complete: {self.fine.message}")
+
+    def at(self, t):
+        """(q, omega, mask): reference values at the times ``t`` where it is defined (``mask``)."""
+        if self.kind == "exact":
+            q, w = exact_torque_free(self.ctx.inertia, self.ctx.q0, self.ctx.omega0, t)
+            return q, w, np.ones(len(t), bool)
+        if self.kind == "dop853":
+            y = self.sol.sol(t).T
+            q = y[:, :4] / np.linalg.norm(y[:, :4], axis=1, keepdims=True)
+            return q, y[:, 4:], np.ones(len(t), bool)
+        # fine: only at times on its own grid
+        idx = np.rint(t / self.scenario.reference_dt).astype(np.int64)
+        on_grid = np.abs(idx * self.scenario.reference_dt - t) <= 1e-9 * np.maximum(1.0, t)
+        on_grid |= np.isclose(t, self.fine.t[-1], rtol=0, atol=1e-12)
+        idx = np.where(np.isclose(t, self.fine.t[-1], rtol=0, atol=1e-12), len(self.fine.t) - 1, idx)
+        idx = np.clip(idx, 0, len(self.fine.t) - 1)
+        return self.fine.q[idx], self.fine.omega[idx], on_grid
+
+
+def _reference(scenario: Scenario) -> _Reference:
+    return _cached("reference", scenario, lambda: _Reference(scenario, _context(scenario)))
+
+
+def _run_method(scenario: Scenario, method: str, steps: tuple) -> dict:
+    """All steps of one method (in a worker): per-run metrics, and the sampled finest good run."""
+    import warnings
+
+    warnings.filterwarnings("ignore", category=UserWarning, module="xcheck.models")
+    ctx = _context(scenario)
+    ref = _reference(scenario)
+    runner = RUNNERS[method]
+    torque_free = ctx.torque is None
+    runs, finest = [], None
+    for dt in steps:
+        t0 = time.perf_counter()
+        try:
+            traj = runner.run(ctx, dt)
+        except ValueError as exc:  # e.g. a step the run cannot take
+            runs.append(_failed(dt, "failed", f"{method}: {exc}", time.perf_counter() - t0))
+            continue
+        wall = time.perf_counter() - t0
+        n, _ = step_plan(dt, ctx.duration)
+        if not traj.ok:
+            runs.append(_failed(dt, traj.status, traj.message, wall))
+            continue
+        q_ref, w_ref, mask = ref.at(traj.t)
+        sub = _subset(traj, mask)
+        err = errors_against(sub, q_ref[mask], w_ref[mask])
+        drift = invariant_drift(ctx.inertia, traj)
+        record = {"dt": dt, "status": "ok", **err,
+                  "energy_drift": drift["energy_drift"] if torque_free else None,
+                  "momentum_drift": drift["momentum_drift"] if torque_free else None,
+                  "norm_drift": drift["norm_drift"],
+                  "wall_time": wall, "steps_per_second": n / wall if wall > 0 else None}
+        if not all(v is None or math.isfinite(v) for v in record.values() if isinstance(v, float)):
+            runs.append(_failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall))
+            continue
+        runs.append(record)
+        finest = (dt, traj)
+    series = _sample(finest, ref, ctx) if finest is not None else None
+    return {"method": method, "runs": runs, "series": series}
+
+
+def _failed(dt, status, message, wall):
+    return {"dt": dt, "status": status, "message": message, "attitude_error": None, "max_attitude_error": None,
+            "omega_error": None, "max_omega_error": None, "energy_drift": None, "momentum_drift": None,
+            "norm_drift": None, "wall_time": wall, "steps_per_second": None}
+
+
+def _subset(traj, mask):
+    from .trajectory import Trajectory
+
+    return Trajectory(t=traj.t[mask], q=traj.q[mask], omega=traj.omega[mask])
+
+
+def _sample(finest, ref, ctx):
+    """The finest good run sampled every PLOT_SAMPLE_DT (and its reference, errors and invariants)."""
+    from .metrics import kinetic_energy, world_momentum
+
+    dt, traj = finest
+    stride = max(1, int(round(PLOT_SAMPLE_DT / dt)))
+    idx = np.unique(np.concatenate([np.arange(0, len(traj.t), stride), [len(traj.t) - 1]]))
+    t = traj.t[idx]
+    q_ref, w_ref, mask = ref.at(t)
+    q = traj.q[idx]
+    out = {"dt": dt, "t": t, "q": q, "omega": traj.omega[idx], "q_ref": q_ref, "omega_ref": w_ref, "ref_mask": mask,
+           "attitude_error": np.where(mask, rot.attitude_error(q, q_ref), np.nan)}
+    E = kinetic_energy(ctx.inertia, out["omega"])
+    H = world_momentum(ctx.inertia, q, out["omega"])
+    out["energy_drift"] = E / E[0] - 1 if E[0] > 0 else np.zeros_like(E)
+    out["momentum_drift"] = np.linalg.norm(H - H[0], axis=1) / max(np.linalg.norm(H[0]), 1e-300)
+    if "euler" in traj.extras:
+        out["euler"] = traj.extras["euler"][idx]
+    if ctx.torque is not None:
+        out["torque"] = np.array([ctx.torque(tt, qq, ww) for tt, qq, ww in zip(t, q, out["omega"])])
+    return out
+
+
+# ------------------------------------------------------------------------------------------------
+# back in the parent: orders, checks, verdict
+# ------------------------------------------------------------------------------------------------
+def study_floor(results) -> float:
+    """The error below which a study does not measure orders: the larger of :data:`ORDER_FLOOR` and 10x
+    the smallest error any method reached (which bounds the reference's own error from above)."""
+    errs = [r["attitude_error"] for res in results for r in res["runs"] if r["attitude_error"]]
+    return max(ORDER_FLOOR, 10 * min(errs)) if errs else ORDER_FLOOR
+
+
+def assemble(scenario: Scenario, methods, steps, results) -> StudyResult:
+    checks_cfg = scenario.checks
+    data_methods = {}
+    series = {}
+    floor = study_floor(results)
+    for res in results:
+        name = res["method"]
+        runner = RUNNERS[name]
+        runs = res["runs"]
+        dts = [r["dt"] for r in runs]
+        errs = [r["attitude_error"] for r in runs]
+        fit = observed_order(dts, errs, floor=floor)
+        ok_runs = [r for r in runs if r["status"] == "ok"]
+        status = "ok" if len(ok_runs) == len(runs) else (
+            "singular" if any(r["status"] == "singular" for r in runs) else "failed")
+        data_methods[name] = {"engine": runner.engine, "expected_order": runner.expected_order,
+                              "observed_order": fit.order, "order_note": fit.note,
+                              "local_orders": fit.local_orders, "status": status, "runs": runs}
+        if res["series"] is not None:
+            series[name] = res["series"]
+    checks = _checks(scenario, data_methods, checks_cfg)
+    data = {"schema": SCHEMA, "scenario": scenario.name, "description": scenario.description,
+            "model": str(scenario.model), "duration": scenario.duration, "reference": scenario.reference,
+            "torque": scenario.torque, "initial": {"quaternion": scenario.q0.tolist(),
+                                                   "angular_velocity": scenario.omega0.tolist(),
+                                                   "euler_sequence": scenario.sequence},
+            "steps": list(steps), "order_floor": floor, "versions": versions(), "methods": data_methods,
+            "checks": checks,
+            "passed": all(c["passed"] for c in checks)}
+    return StudyResult(data=data, series=series, scenario=scenario)
+
+
+def _finest_ok(entry):
+    ok = [r for r in entry["runs"] if r["status"] == "ok"]
+    return min(ok, key=lambda r: r["dt"]) if ok else None
+
+
+def _method_checks(name, entry, cfg, torque_free):
+    """The regular checks of one method: (name, passed, value, limit, note).
+
+    A run that stops (singular, non-finite) fails the method only at its finest step: at coarse steps
+    a method may legitimately be unstable, and the report shows those runs with their messages."""
+    out = []
+    expected = entry["expected_order"]
+    runs = sorted(entry["runs"], key=lambda r: r["dt"])
+    if runs and runs[0]["status"] != "ok":
+        out.append((f"runs:{name}", False, None, None, runs[0].get("message", runs[0]["status"])))
+    finest = _finest_ok(entry)
+    if expected is not None and finest is not None:
+        order = entry["observed_order"]
+        if order is None:
+            worst = max(r["attitude_error"] for r in runs if r["attitude_error"] is not None)
+            out.append((f"order:{name}", worst <= cfg["final_error"], None, expected,
+                        f"no asymptotic range ({entry['order_note']}); every step within {worst:.2g} rad"))
+        else:
+            passed = expected - cfg["order_tolerance"] <= order <= expected + cfg["order_excess"]
+            note = entry["order_note"]
+            if passed and order > expected + cfg["order_tolerance"]:
+                note += "; faster than its order here: pre-asymptotic (the next error term still dominates)"
+            out.append((f"order:{name}", passed, order, expected, note))
+        if expected >= 4:
+            out.append((f"final-error:{name}", finest["attitude_error"] <= cfg["final_error"],
+                        finest["attitude_error"], cfg["final_error"], f"at dt = {finest['dt']:g} s"))
+    if torque_free and finest is not None and expected is not None and expected >= 4:
+        drift = max(finest["energy_drift"], finest["momentum_drift"])
+        out.append((f"invariants:{name}", drift <= cfg["invariant_tolerance"], drift, cfg["invariant_tolerance"],
+                    f"energy and momentum drift at dt = {finest['dt']:g} s"))
+    return out
+
+
+def _checks(scenario, data_methods, cfg):
+    torque_free = scenario.torque is None
+    checks = []
+
+    def add(name, passed, value, limit, note=""):
+        checks.append({"name": name, "passed": bool(passed), "value": _json_number(value),
+                       "limit": _json_number(limit), "note": note})
+
+    for name, entry in data_methods.items():
+        regular = _method_checks(name, entry, cfg, torque_free)
+        if name in cfg["expected_to_fail"]:
+            failing = [c for c in regular if not c[1]]
+            note = "; ".join(f"{c[0]} fails" + (f" ({c[4]})" if c[4] else "") for c in failing)
+            add(f"expected-failure:{name}", bool(failing), None, None,
+                note or "expected to fail, but every check passed")
+        else:
+            for c in regular:
+                add(*c)
+    # MuJoCo RK4 and our best method agree at the finest step
+    ours = [(n, _finest_ok(e)) for n, e in data_methods.items()
+            if e["engine"] == "xcheck" and e["expected_order"] == 4 and n not in cfg["expected_to_fail"]]
+    ours = [(n, r) for n, r in ours if r is not None]
+    if "mujoco-rk4" in data_methods and ours and _finest_ok(data_methods["mujoco-rk4"]) is not None:
+        best_name, best = min(ours, key=lambda x: x[1]["attitude_error"])
+        mj = _finest_ok(data_methods["mujoco-rk4"])
+        worst = max(mj["attitude_error"], best["attitude_error"])
+        add("agreement:mujoco-rk4", worst <= cfg["agreement"], worst, cfg["agreement"],
+            f"mujoco-rk4 {mj['attitude_error']:.3g} rad and {best_name} {best['attitude_error']:.3g} rad against the "
+            f"{scenario.reference} reference at their finest steps")
+    return checks
+
+
+def _json_number(v):
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else None
