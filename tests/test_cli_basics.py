@@ -17,7 +17,7 @@ def test_readme_opens_with_exactly_two_setup_commands():
     assert first_block and text.index("```bash") < text.index("\n## "), "the set-up block must come first"
     lines = [line for line in first_block.group(1).splitlines() if line.strip()]
     assert len(lines) == 2
-    assert "xcheck" in lines[0] and "pip install" in lines[0]
+    assert lines[0].endswith("xcheck report") and "pip install" in lines[0]
     assert "pytest" in lines[1] and ".[test]" in lines[1]
 
 
@@ -25,4 +25,4 @@ def test_version_and_list(capsys):
     proc = subprocess.run([sys.executable, "-m", "xcheck", "--version"], capture_output=True, text=True)
     assert proc.returncode == 0 and proc.stdout.strip() == f"xcheck {__version__}"
     assert main(["list"]) == 0
-    assert "323" in capsys.readouterr().out
+    assert "gyroscope-nonsingular" in capsys.readouterr().out

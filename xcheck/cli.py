@@ -1,35 +1,312 @@
-"""Command line: ``xcheck --version``, ``xcheck list`` (more commands arrive with the study and report)."""
+"""The ``xcheck`` command line.
+
+``xcheck list | converge | run | report | bench``. Exit codes: 0 when every check passed, 1 when a check
+failed, 2 for bad input (the message names the file, key or argument), 130 when interrupted.
+"""
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import time
+import warnings
+from pathlib import Path
 
 from . import __version__
-from .rotations import EULER_SEQUENCES
+
+EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+class UsageError(ValueError):
+    """Bad command-line input."""
+
+
+# ------------------------------------------------------------------------------------------------
+# progress: a bar on a terminal, nothing otherwise
+# ------------------------------------------------------------------------------------------------
+class Progress:
+    def __init__(self, enabled: bool | None = None, stream=sys.stderr):
+        self.stream = stream
+        self.enabled = stream.isatty() if enabled is None else enabled
+        self.start = time.perf_counter()
+
+    def __call__(self, done: int, total: int, label: str = ""):
+        if not self.enabled:
+            return
+        width = 30
+        filled = int(width * done / max(total, 1))
+        elapsed = time.perf_counter() - self.start
+        line = f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} {elapsed:5.1f}s {label}"
+        self.stream.write(line[:120].ljust(120))
+        self.stream.flush()
+        if done >= total:
+            self.stream.write("\n")
+
+    def close(self):
+        pass
+
+
+# ------------------------------------------------------------------------------------------------
+def _csv_list(text, kind, name):
+    items = [x.strip() for x in text.split(",") if x.strip()]
+    if not items:
+        raise UsageError(f"{name}: expected a comma-separated list, got {text!r}")
+    if kind is float:
+        out = []
+        for x in items:
+            try:
+                v = float(x)
+            except ValueError:
+                raise UsageError(f"{name}: {x!r} is not a number of seconds") from None
+            if not (v > 0 and v == v and v != float("inf")):
+                raise UsageError(f"{name}: {x!r} is not a positive finite step")
+            out.append(v)
+        return out
+    return items
+
+
+def _methods_arg(text):
+    from .runners import RUNNERS
+
+    methods = _csv_list(text, str, "--methods")
+    for m in methods:
+        if m not in RUNNERS:
+            raise UsageError(f"--methods: unknown method {m!r}; expected any of {', '.join(RUNNERS)}")
+    return methods
 
 
 def _cmd_list(args) -> int:
-    print("Euler sequences: " + " ".join(EULER_SEQUENCES))
-    return 0
+    from .runners import RUNNERS
+    from .scenario import ScenarioError, bundled_scenarios, load_scenario
+
+    print("Bundled scenarios (models/scenarios/):")
+    for name, path in bundled_scenarios().items():
+        try:
+            desc = load_scenario(path).description
+        except ScenarioError as exc:
+            desc = f"(invalid: {exc})"
+        print(f"  {name:28s} {desc}")
+    print("\nMethods:")
+    for name, r in RUNNERS.items():
+        order = r.expected_order if r.expected_order is not None else "adaptive"
+        print(f"  {name:22s} order {order!s:9s} {r.summary}")
+    return EXIT_OK
+
+
+def _print_study(st) -> None:
+    data = st.data
+    print(f"\n{data['scenario']}: {'PASSED' if data['passed'] else 'FAILED'} (reference: {data['reference']})")
+    print(f"  {'method':22s} {'expected':>8s} {'observed':>8s} {'finest error':>13s}  status")
+    for name, e in data["methods"].items():
+        ok = [r for r in e["runs"] if r["status"] == "ok"]
+        err = min(ok, key=lambda r: r["dt"])["attitude_error"] if ok else None
+        obs = f"{e['observed_order']:.2f}" if e["observed_order"] is not None else "—"
+        exp = e["expected_order"] if e["expected_order"] is not None else "adaptive"
+        err_text = "—" if err is None else format(err, ".2e")
+        print(f"  {name:22s} {exp!s:>8s} {obs:>8s} {err_text:>13s}  {e['status']}")
+    failed = [c for c in data["checks"] if not c["passed"]]
+    for c in failed:
+        print(f"  FAILED {c['name']}: {c['note']}")
+
+
+def _cmd_converge(args) -> int:
+    from .report.io import write_json_atomic
+    from .scenario import resolve_scenario
+    from .study import run_study
+
+    scenario = resolve_scenario(args.scenario)
+    methods = _methods_arg(args.methods) if args.methods else None
+    steps = _csv_list(args.steps, float, "--steps") if args.steps else None
+    t0 = time.perf_counter()
+    progress = Progress()
+    st = run_study(scenario, methods=methods, steps=steps, quick=args.quick, workers=args.workers,
+                   progress=progress)
+    _print_study(st)
+    if args.json:
+        write_json_atomic(args.json, st.data)
+    if args.out:
+        from .report.plots import scenario_figures
+
+        files = scenario_figures(st.data, st.series, args.out)
+        print(f"  figures: {', '.join(str(Path(args.out) / f) for f, _ in files)}")
+    print(f"wall time {time.perf_counter() - t0:.1f} s")
+    return EXIT_OK if st.passed else EXIT_CHECK_FAILED
+
+
+def _cmd_run(args) -> int:
+    import numpy as np
+
+    from .report.io import write_text_atomic
+    from .runners import RUNNERS
+    from .scenario import resolve_scenario
+    from .study import _context, _reference
+
+    scenario = resolve_scenario(args.scenario)
+    if args.method not in RUNNERS:
+        raise UsageError(f"--method: unknown {args.method!r}; expected one of {', '.join(RUNNERS)}")
+    if not (args.dt > 0 and np.isfinite(args.dt)):
+        raise UsageError(f"--dt: expected a positive finite step in seconds, got {args.dt!r}")
+    ctx = _context(scenario)
+    t0 = time.perf_counter()
+    traj = RUNNERS[args.method].run(ctx, args.dt)
+    wall = time.perf_counter() - t0
+    from . import rotations as rot
+
+    ref = _reference(scenario)
+    q_ref, w_ref, mask = ref.at(traj.t)
+    err = np.where(mask, rot.attitude_error(traj.q, q_ref), np.nan)
+    print(f"{scenario.name} / {args.method} at dt = {args.dt:g} s: {traj.status} ({len(traj.t) - 1} steps, "
+          f"{wall:.3g} s)")
+    if traj.message:
+        print(f"  {traj.message}")
+    if mask[-1] and traj.ok:
+        print(f"  attitude error at t = {traj.t[-1]:g} s: {err[-1]:.3e} rad (against the {scenario.reference} "
+              f"reference); max over the grid {np.nanmax(err):.3e} rad")
+        print(f"  body-rate error at the end: {np.linalg.norm(traj.omega[-1] - w_ref[-1]):.3e} rad/s")
+    if args.csv:
+        header = "t_s,qw,qx,qy,qz,wx_rad_s,wy_rad_s,wz_rad_s,attitude_error_rad"
+        rows = np.column_stack([traj.t, traj.q, traj.omega, err])
+        if "euler" in traj.extras:
+            header += ",euler1_rad,euler2_rad,euler3_rad"
+            rows = np.column_stack([rows, traj.extras["euler"]])
+        lines = [f"# {scenario.name} / {args.method}, dt = {args.dt:g} s, status {traj.status}", header]
+        lines += [",".join("" if not np.isfinite(v) else f"{v:.17g}" for v in row) for row in rows]
+        write_text_atomic(args.csv, "\n".join(lines) + "\n")
+        print(f"  trajectory: {args.csv}")
+    if args.plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, axes = plt.subplots(3, 1, figsize=(7.5, 7), sharex=True)
+        for k, c in enumerate("wxyz"):
+            axes[0].plot(traj.t, traj.q[:, k], label=f"q{c}")
+        for k, c in enumerate("xyz"):
+            axes[1].plot(traj.t, traj.omega[:, k], label=f"ω{c}")
+        axes[2].semilogy(traj.t, np.maximum(err, 1e-17))
+        axes[0].legend(ncol=4)
+        axes[1].legend(ncol=3)
+        axes[0].set_ylabel("quaternion")
+        axes[1].set_ylabel("body rate [rad/s]")
+        axes[2].set_ylabel("attitude error [rad]")
+        axes[2].set_xlabel("t [s]")
+        axes[0].set_title(f"{scenario.name} / {args.method}, dt = {args.dt:g} s")
+        tmp = Path(args.plot).with_name(f".{Path(args.plot).name}.tmp.png")
+        fig.savefig(tmp, bbox_inches="tight")
+        os.replace(tmp, args.plot)
+        print(f"  plot: {args.plot}")
+    return EXIT_OK if traj.ok else EXIT_CHECK_FAILED
+
+
+def _cmd_report(args) -> int:
+    from .report.render import write_report
+    from .scenario import bundled_scenarios, resolve_scenario
+    from .study import make_pool, run_studies, throughput_rows
+
+    names = args.scenarios or list(bundled_scenarios())
+    scenarios = [resolve_scenario(n) for n in names]  # every input error before any work
+    t0 = time.perf_counter()
+    progress = Progress()
+    pool = make_pool(args.workers)
+    try:
+        studies = run_studies(scenarios, quick=args.quick, progress=progress, pool=pool)
+        rows = throughput_rows(studies)
+        if args.bench:
+            from .bench import run_bench
+
+            rows += run_bench(quick=args.quick, repeat=1)
+        folder = write_report(studies, args.out, throughput=rows, wall_time=time.perf_counter() - t0,
+                              quick=args.quick, pool=pool)
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+    for st in studies:
+        _print_study(st)
+    passed = all(st.passed for st in studies)
+    print(f"\nreport: {folder}/index.html ({'PASSED' if passed else 'FAILED'}); wall time "
+          f"{time.perf_counter() - t0:.1f} s")
+    return EXIT_OK if passed else EXIT_CHECK_FAILED
+
+
+def _cmd_bench(args) -> int:
+    from .bench import main as bench_main
+
+    argv = []
+    if args.json:
+        argv += ["--json", args.json]
+    if args.quick:
+        argv.append("--quick")
+    argv += ["--repeat", str(args.repeat)]
+    return bench_main(argv)
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="xcheck", description="MuJoCo-validated rigid-body attitude cross-checker")
     parser.add_argument("--version", action="version", version=f"xcheck {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
     p = sub.add_parser("list", help="bundled scenarios and methods")
     p.set_defaults(func=_cmd_list)
+
+    p = sub.add_parser("converge", help="one convergence study")
+    p.add_argument("scenario", help="a bundled scenario name or a scenario .toml file")
+    p.add_argument("--methods", help="comma-separated methods (default: the scenario's, or all)")
+    p.add_argument("--steps", help="comma-separated steps in seconds (default: the scenario's)")
+    p.add_argument("--quick", action="store_true", help="the scenario's quick steps")
+    p.add_argument("--json", metavar="PATH", help="write the results (schema xcheck.convergence/1)")
+    p.add_argument("--out", metavar="DIR", help="write the figures into DIR")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
+    p.set_defaults(func=_cmd_converge)
+
+    p = sub.add_parser("run", help="one trajectory")
+    p.add_argument("scenario")
+    p.add_argument("--method", required=True)
+    p.add_argument("--dt", type=float, required=True, help="step [s]")
+    p.add_argument("--csv", metavar="PATH", help="write the trajectory as CSV")
+    p.add_argument("--plot", metavar="PATH", help="write a PNG plot")
+    p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("report", help="the full cross-check report (the main job)")
+    p.add_argument("scenarios", nargs="*", help="bundled names or .toml files (default: every bundled scenario)")
+    p.add_argument("--out", default="reports", metavar="DIR", help="where reports go (default: ./reports)")
+    p.add_argument("--quick", action="store_true", help="fewer steps, for a fast look")
+    p.add_argument("--bench", action="store_true", help="also run the benchmark into the appendix")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
+    p.set_defaults(func=_cmd_report)
+
+    p = sub.add_parser("bench", help="steps per second of every method, and MuJoCo's")
+    p.add_argument("--json", metavar="PATH")
+    p.add_argument("--quick", action="store_true")
+    p.add_argument("--repeat", type=int, default=3)
+    p.set_defaults(func=_cmd_bench)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .models import ModelError
+    from .scenario import ScenarioError
+
     parser = build_parser()
     args = parser.parse_args(argv)
     if not hasattr(args, "func"):
         parser.print_help()
-        return 2
-    return args.func(args)
+        return EXIT_BAD_INPUT
+    if getattr(args, "workers", None) is not None and args.workers < 1:
+        print("xcheck: error: --workers: expected a positive number of processes", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    warnings.filterwarnings("ignore", category=UserWarning, module=r"xcheck\.models")
+    try:
+        return args.func(args)
+    except (ScenarioError, ModelError, UsageError) as exc:
+        print(f"xcheck: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("\nxcheck: interrupted; no report was written", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:  # output piped into a reader that stopped (| head): stop quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
 
 
 if __name__ == "__main__":

@@ -21,9 +21,9 @@ __all__ = [
     "ORDER_FLOOR",
 ]
 
-#: Errors above this [rad] are pre-asymptotic (beyond the small-error regime where e ~ C dt^p holds)
-#: and are not used to fit an order.
-ORDER_CEILING = 1e-2
+#: Errors above this [rad] are pre-asymptotic (beyond the small-error regime where e ~ C dt^p holds;
+#: attitude errors also saturate at pi) and are not used to measure an order.
+ORDER_CEILING = 0.1
 #: Errors below this [rad] are not used to measure an order: the round-off of a 10 s run in double
 #: precision reaches 1e-13 to 2e-11 rad here (it grows with the number of steps).
 ORDER_FLOOR = 1e-12

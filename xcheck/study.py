@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 import multiprocessing
 
@@ -20,7 +20,7 @@ from .scenario import Scenario, build_torque
 from .trajectory import time_grid, step_plan
 from .versions import versions
 
-__all__ = ["run_study", "StudyResult", "PLOT_SAMPLE_DT"]
+__all__ = ["run_study", "run_studies", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows"]
 
 SCHEMA = "xcheck.convergence/1"
 #: Series kept for plots and CSV are sampled at this spacing [s] (or every step, if coarser).
@@ -55,6 +55,7 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     as runs finish. ``pool`` reuses an existing executor (the report runs all scenarios in one).
     """
     methods = list(methods) if methods else default_methods(scenario)
+    steps_given = steps is not None
     for m in methods:
         if m not in RUNNERS:
             raise ValueError(f"methods: unknown {m!r}; expected one of {', '.join(RUNNERS)}")
@@ -65,7 +66,31 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     tasks = [(scenario, m, tuple(steps)) for m in methods]
     results = _map(_run_method, tasks, workers=workers, progress=progress, pool=pool,
                    labels=[f"{scenario.name}: {m}" for m in methods])
-    return assemble(scenario, methods, steps, results)
+    return assemble(scenario, methods, steps, results, quick=quick and not steps_given)
+
+
+def make_pool(workers: int | None = None) -> ProcessPoolExecutor:
+    """Worker processes for studies (spawned: no state inherited from this process)."""
+    return ProcessPoolExecutor(max_workers=workers or None, mp_context=multiprocessing.get_context("spawn"))
+
+
+def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, progress=None,
+                pool=None) -> list[StudyResult]:
+    """Several studies over one pool of worker processes: every (scenario, method) pair is one task,
+    submitted together so that both cores stay busy to the end."""
+    plans = []
+    for sc in scenarios:
+        methods = default_methods(sc)
+        steps = sorted((float(s) for s in (sc.quick_steps if quick else sc.steps)), reverse=True)
+        plans.append((sc, methods, steps))
+    tasks = [(sc, m, tuple(steps)) for sc, methods, steps in plans for m in methods]
+    labels = [f"{sc.name}: {m}" for sc, methods, _ in plans for m in methods]
+    results = _map(_run_method, tasks, workers=workers, progress=progress, pool=pool, labels=labels)
+    out, i = [], 0
+    for sc, methods, steps in plans:
+        out.append(assemble(sc, methods, steps, results[i:i + len(methods)], quick=quick))
+        i += len(methods)
+    return out
 
 
 def _map(fn, tasks, *, workers, progress, pool, labels):
@@ -78,14 +103,13 @@ def _map(fn, tasks, *, workers, progress, pool, labels):
                 progress(i + 1, total, labels[i])
         return out
     own = pool is None
-    pool = pool or ProcessPoolExecutor(max_workers=workers or None, mp_context=multiprocessing.get_context("spawn"))
+    pool = pool or make_pool(workers)
     try:
-        futures = [pool.submit(fn, *task) for task in tasks]
+        futures = {pool.submit(fn, *task): i for i, task in enumerate(tasks)}
         out = [None] * total
-        done = 0
-        for i, fut in enumerate(futures):
+        for done, fut in enumerate(as_completed(futures), start=1):
+            i = futures[fut]
             out[i] = fut.result()
-            done += 1
             if progress:
                 progress(done, total, labels[i])
         return out
@@ -257,7 +281,9 @@ def study_floor(results) -> float:
     return max(ORDER_FLOOR, 10 * min(errs)) if errs else ORDER_FLOOR
 
 
-def assemble(scenario: Scenario, methods, steps, results) -> StudyResult:
+def assemble(scenario: Scenario, methods, steps, results, *, quick: bool = False) -> StudyResult:
+    """Orders, checks and verdict from the workers' results. ``quick``: the final-error and invariant
+    checks, which are about the finest steps of the full study, are not applied."""
     checks_cfg = scenario.checks
     data_methods = {}
     series = {}
@@ -277,13 +303,13 @@ def assemble(scenario: Scenario, methods, steps, results) -> StudyResult:
                               "local_orders": fit.local_orders, "status": status, "runs": runs}
         if res["series"] is not None:
             series[name] = res["series"]
-    checks = _checks(scenario, data_methods, checks_cfg)
+    checks = _checks(scenario, data_methods, checks_cfg, quick)
     data = {"schema": SCHEMA, "scenario": scenario.name, "description": scenario.description,
             "model": str(scenario.model), "duration": scenario.duration, "reference": scenario.reference,
             "torque": scenario.torque, "initial": {"quaternion": scenario.q0.tolist(),
                                                    "angular_velocity": scenario.omega0.tolist(),
                                                    "euler_sequence": scenario.sequence},
-            "steps": list(steps), "order_floor": floor, "versions": versions(), "methods": data_methods,
+            "quick": quick, "steps": list(steps), "order_floor": floor, "versions": versions(), "methods": data_methods,
             "checks": checks,
             "passed": all(c["passed"] for c in checks)}
     return StudyResult(data=data, series=series, scenario=scenario)
@@ -294,7 +320,7 @@ def _finest_ok(entry):
     return min(ok, key=lambda r: r["dt"]) if ok else None
 
 
-def _method_checks(name, entry, cfg, torque_free):
+def _method_checks(name, entry, cfg, torque_free, quick=False):
     """The regular checks of one method: (name, passed, value, limit, note).
 
     A run that stops (singular, non-finite) fails the method only at its finest step: at coarse steps
@@ -317,17 +343,17 @@ def _method_checks(name, entry, cfg, torque_free):
             if passed and order > expected + cfg["order_tolerance"]:
                 note += "; faster than its order here: pre-asymptotic (the next error term still dominates)"
             out.append((f"order:{name}", passed, order, expected, note))
-        if expected >= 4:
+        if expected >= 4 and not quick:
             out.append((f"final-error:{name}", finest["attitude_error"] <= cfg["final_error"],
                         finest["attitude_error"], cfg["final_error"], f"at dt = {finest['dt']:g} s"))
-    if torque_free and finest is not None and expected is not None and expected >= 4:
+    if torque_free and finest is not None and expected is not None and expected >= 4 and not quick:
         drift = max(finest["energy_drift"], finest["momentum_drift"])
         out.append((f"invariants:{name}", drift <= cfg["invariant_tolerance"], drift, cfg["invariant_tolerance"],
                     f"energy and momentum drift at dt = {finest['dt']:g} s"))
     return out
 
 
-def _checks(scenario, data_methods, cfg):
+def _checks(scenario, data_methods, cfg, quick=False):
     torque_free = scenario.torque is None
     checks = []
 
@@ -336,7 +362,7 @@ def _checks(scenario, data_methods, cfg):
                        "limit": _json_number(limit), "note": note})
 
     for name, entry in data_methods.items():
-        regular = _method_checks(name, entry, cfg, torque_free)
+        regular = _method_checks(name, entry, cfg, torque_free, quick)
         if name in cfg["expected_to_fail"]:
             failing = [c for c in regular if not c[1]]
             note = "; ".join(f"{c[0]} fails" + (f" ({c[4]})" if c[4] else "") for c in failing)
@@ -364,3 +390,15 @@ def _json_number(v):
         return None
     v = float(v)
     return v if math.isfinite(v) else None
+
+
+def throughput_rows(studies) -> list[dict]:
+    """Best steps per second of every method in every study (``xcheck.bench/1`` rows, batch 1)."""
+    rows = []
+    for st in studies:
+        for name, entry in st.data["methods"].items():
+            rates = [r["steps_per_second"] for r in entry["runs"] if r.get("steps_per_second")]
+            if rates:
+                rows.append({"engine": entry["engine"], "method": name, "scenario": st.data["scenario"], "batch": 1,
+                             "steps_per_second": max(rates)})
+    return rows

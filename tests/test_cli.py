@@ -1,0 +1,275 @@
+"""The command line end to end: the quick report (files, schema, HTML and images, verdicts), the other
+commands, every input error by its message and exit code, and no half-written report on interruption."""
+
+import base64
+import io
+import json
+import re
+import subprocess
+import sys
+from html.parser import HTMLParser
+from pathlib import Path
+
+import matplotlib.image as mpimg
+import pytest
+
+from xcheck.cli import main
+from xcheck.models import BUNDLED_MODELS
+from xcheck.scenario import bundled_scenarios
+
+SCEN = BUNDLED_MODELS / "scenarios"
+
+
+def xcheck(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "xcheck", *args], capture_output=True, text=True, cwd=cwd)
+
+
+# ------------------------------------------------------------------------------------------------
+# the main job, --quick
+# ------------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def quick_report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("reports")
+    proc = xcheck("report", "--quick", "--out", str(out))
+    return proc, out
+
+
+def test_quick_report_passes_and_writes_every_file(quick_report):
+    proc, out = quick_report
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "wall time" in proc.stdout and "PASSED" in proc.stdout
+    assert "[#" not in proc.stderr  # no progress bar when not on a terminal
+    latest = out / "latest"
+    assert latest.is_symlink() and latest.resolve().parent == out.resolve()
+    folder = latest.resolve()
+    for name in ("index.html", "report.md", "results.json"):
+        assert (folder / name).is_file()
+    assert not list(out.glob(".incomplete-*"))
+    for scenario in bundled_scenarios():
+        assert (folder / "plots" / f"{scenario}-convergence.png").is_file()
+        csvs = list((folder / "trajectories" / scenario).glob("*.csv"))
+        assert len(csvs) >= 10
+    # a CSV row: t, q (4), omega (3), error
+    text = (folder / "trajectories" / "gyroscope-nonsingular" / "lie-rkmk4.csv").read_text().splitlines()
+    assert text[1].startswith("t_s,qw,qx,qy,qz") and len(text[2].split(",")) == 9
+
+
+def validate_convergence(doc):
+    """Schema xcheck.convergence/1 (issue 5): required keys and types."""
+    assert doc["schema"] == "xcheck.convergence/1"
+    assert isinstance(doc["scenario"], str) and doc["reference"] in ("exact", "dop853", "fine")
+    assert set(doc["versions"]) >= {"xcheck", "mujoco", "numpy", "scipy", "python"}
+    assert isinstance(doc["passed"], bool)
+    for name, m in doc["methods"].items():
+        assert m["expected_order"] is None or isinstance(m["expected_order"], int)
+        assert m["observed_order"] is None or isinstance(m["observed_order"], float)
+        assert m["status"] in ("ok", "singular", "failed")
+        for r in m["runs"]:
+            for key in ("dt", "status", "attitude_error", "omega_error", "energy_drift", "momentum_drift",
+                        "norm_drift", "wall_time", "steps_per_second"):
+                assert key in r, (name, key)
+            if r["status"] == "ok":
+                assert r["attitude_error"] >= 0 and r["omega_error"] >= 0
+            else:
+                assert r["attitude_error"] is None and r["message"]
+    for c in doc["checks"]:
+        assert set(c) >= {"name", "passed", "value", "limit"} and isinstance(c["passed"], bool)
+
+
+def test_results_json_validates(quick_report):
+    _, out = quick_report
+    doc = json.loads((out / "latest" / "results.json").read_text())
+    assert doc["schema"] == "xcheck.report/1" and doc["passed"] is True
+    assert doc["versions"]["mujoco"] and doc["versions"]["numpy"]
+    assert [s["scenario"] for s in doc["scenarios"]] == list(bundled_scenarios())
+    for sc in doc["scenarios"]:
+        validate_convergence(sc)
+    assert doc["throughput"] and all(r["steps_per_second"] > 0 for r in doc["throughput"])
+
+
+def test_verdicts_are_as_expected(quick_report):
+    _, out = quick_report
+    doc = json.loads((out / "latest" / "results.json").read_text())
+    by = {s["scenario"]: s for s in doc["scenarios"]}
+    singular = by["gyroscope-singular"]
+    assert singular["methods"]["euler-rk4"]["status"] == "singular"
+    check = {c["name"]: c for c in singular["checks"]}
+    assert check["expected-failure:euler-rk4"]["passed"]
+    assert all(singular["methods"][m]["status"] == "ok" for m in ("formulation-2", "lie-rkmk4", "mujoco-rk4"))
+    near = {c["name"]: c for c in by["gyroscope-near-singular"]["checks"]}
+    assert near["expected-failure:euler-rk4"]["passed"]
+    nonsing = by["gyroscope-nonsingular"]["methods"]
+    assert abs(nonsing["lie-rkmk4"]["observed_order"] - 4) < 0.3
+    assert abs(nonsing["mujoco-euler"]["observed_order"] - 1) < 0.1
+    assert abs(nonsing["lie-thesis-172"]["observed_order"] - 2) < 0.3
+    agreement = {c["name"]: c for c in by["rax1-orbit-field"]["checks"]}["agreement:mujoco-rk4"]
+    assert agreement["passed"] and agreement["value"] < 1e-9
+
+
+class _Collector(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.images, self.tags = [], []
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append(tag)
+        if tag == "img":
+            self.images.append(dict(attrs)["src"])
+
+
+def test_html_parses_and_its_images_decode(quick_report):
+    _, out = quick_report
+    folder = out / "latest"
+    parser = _Collector()
+    parser.feed((folder / "index.html").read_text())
+    parser.close()
+    pngs = list((folder / "plots").glob("*.png"))
+    assert len(parser.images) == len(pngs) > 0
+    for src in parser.images:
+        assert src.startswith("data:image/png;base64,")  # self-contained
+        image = mpimg.imread(io.BytesIO(base64.b64decode(src.split(",", 1)[1])), format="png")
+        assert image.ndim == 3 and image.shape[0] > 100 and image.shape[1] > 100
+    assert "table" in parser.tags
+    md = (folder / "report.md").read_text()
+    assert md.count("| gyroscope-") >= 3 and "![" in md
+
+
+# ------------------------------------------------------------------------------------------------
+# converge, run, list, bench
+# ------------------------------------------------------------------------------------------------
+def test_converge_with_methods_and_steps(tmp_path):
+    out = tmp_path / "c.json"
+    code = main(["converge", "tumbler-intermediate-axis", "--methods", "lie-rkmk4,mujoco-rk4",
+                 "--steps", "0.015625,0.0078125,0.00390625,0.001953125", "--json", str(out), "--workers", "1"])
+    assert code == 0
+    doc = json.loads(out.read_text())
+    validate_convergence(doc)
+    assert list(doc["methods"]) == ["lie-rkmk4", "mujoco-rk4"]
+    assert abs(doc["methods"]["lie-rkmk4"]["observed_order"] - 4) < 0.3
+
+
+def test_run_writes_csv_and_plot(tmp_path, capsys):
+    csv, png = tmp_path / "t.csv", tmp_path / "t.png"
+    code = main(["run", "gyroscope-singular", "--method", "euler-rk4", "--dt", "0.01", "--csv", str(csv)])
+    assert code == 1  # singular at t = 0: the run is reported, not crashed
+    assert "singularity at t = 0 s" in capsys.readouterr().out
+    code = main(["run", "rax1-orbit-field", "--method", "lie-rkmk4", "--dt", "0.125", "--csv", str(csv),
+                 "--plot", str(png)])
+    assert code == 0
+    lines = csv.read_text().splitlines()
+    assert len(lines) == 2 + 81 and lines[1].startswith("t_s,")
+    assert mpimg.imread(png).shape[0] > 100
+    assert "attitude error at t = 10 s" in capsys.readouterr().out
+
+
+def test_list_shows_scenarios_and_methods(capsys):
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for name in bundled_scenarios():
+        assert name in out
+    assert "lie-rkmk4" in out and "mujoco-implicitfast" in out
+
+
+def test_failed_check_exits_1(tmp_path):
+    text = (SCEN / "gyroscope-nonsingular.toml").read_text().replace("../gyroscope.xml", str(BUNDLED_MODELS /
+                                                                                            "gyroscope.xml"))
+    text += "\n[checks]\nfinal_error = 1e-20\n"
+    path = tmp_path / "strict.toml"
+    path.write_text(text)
+    assert main(["converge", str(path), "--methods", "lie-rkmk4", "--steps", "0.01,0.005", "--workers", "1"]) == 1
+
+
+# ------------------------------------------------------------------------------------------------
+# bad input: exit code 2, a message naming the file and the key, no traceback
+# ------------------------------------------------------------------------------------------------
+BASE = """name = "t"
+model = "{model}"
+duration = 1.0
+[initial]
+quaternion = [1.0, 0.0, 0.0, 0.0]
+angular_velocity = [0.1, 0.2, 0.3]
+"""
+
+
+@pytest.mark.parametrize("edit, match", [
+    (lambda s: s + "colour = 'red'\n", r"\[initial\] colour: unknown key"),
+    (lambda s: s.replace("duration = 1.0\n", ""), r"duration: missing \(required\)"),
+    (lambda s: s.replace("duration = 1.0", "duration = 'ten'"), r"duration: expected a number, got str 'ten'"),
+    (lambda s: s.replace("duration = 1.0", "duration = inf"), r"duration: expected a finite number"),
+    (lambda s: s.replace("duration = 1.0", "duration = -1.0"), r"duration: expected a positive number"),
+    (lambda s: s.replace("[0.1, 0.2, 0.3]", "[0.1, 0.2]"), r"\[initial\] angular_velocity: expected 3 numbers"),
+    (lambda s: s.replace("[0.1, 0.2, 0.3]", "[0.1, nan, 0.3]"), r"angular_velocity: expected finite numbers"),
+    (lambda s: s.replace("[1.0, 0.0, 0.0, 0.0]", "[0.0, 0.0, 0.0, 0.0]"), r"quaternion: a zero quaternion"),
+    (lambda s: s + "[study]\nmethods = ['rk5']\n", r"\[study\] methods: unknown method 'rk5'"),
+    (lambda s: s + "[study]\nreference = 'dop853'\nsteps = [0.1, -0.1]\n", r"\[study\] steps: expected positive"),
+    (lambda s: s + "[torque]\nkind = 'magnetic'\nfield = 'body-table'\n[study]\nreference = 'exact'\n",
+     r"\[torque\] table: missing"),
+    (lambda s: s + "[torque]\nkind = 'constant'\ntorque = [0, 0, 1e-3]\n",
+     r"\[study\] reference: 'exact' is the torque-free solution"),
+    (lambda s: s + "[torque]\nkind = 'magnetic'\nfield = 'orbit-dipole'\n[study]\nreference = 'dop853'\n",
+     r"\[torque\]: magnetic torque needs a dipole"),
+    (lambda s: s.replace('model = "', 'model = "nonexistent-'), r"model: no such file"),
+    (lambda s: s.replace("name = ", "nam = "), r"nam: unknown key"),
+    (lambda s: s + "[checks]\norder_tolerance = 'wide'\n", r"\[checks\] order_tolerance: expected a number"),
+    (lambda s: "name = [\n", r"not valid TOML"),
+])
+def test_scenario_errors_name_the_file_and_key(tmp_path, capsys, edit, match):
+    path = tmp_path / "bad.toml"
+    path.write_text(edit(BASE.format(model=BUNDLED_MODELS / "gyroscope.xml")))
+    assert main(["converge", str(path), "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert re.search(match, err), err
+    assert str(path) in err and "Traceback" not in err
+
+
+def test_model_refused_by_load_body(tmp_path, capsys):
+    model = tmp_path / "hinge.xml"
+    model.write_text('<mujoco><worldbody><body><joint type="hinge"/><geom size="0.1"/></body></worldbody></mujoco>')
+    path = tmp_path / "s.toml"
+    path.write_text(BASE.format(model=model))
+    assert main(["report", str(path), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}: model: {model}: no free joint" in err
+    assert not (tmp_path / "r").exists()  # no work done, nothing written
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["converge", "no-such-scenario"], "no-such-scenario: not a bundled scenario"),
+    (["converge", "gyroscope-nonsingular", "--methods", "rk5"], "--methods: unknown method 'rk5'"),
+    (["converge", "gyroscope-nonsingular", "--steps", "0.1,abc"], "--steps: 'abc' is not a number"),
+    (["converge", "gyroscope-nonsingular", "--steps", "0.1,-1"], "--steps: '-1' is not a positive finite step"),
+    (["run", "gyroscope-nonsingular", "--method", "rk5", "--dt", "0.1"], "--method: unknown 'rk5'"),
+    (["run", "gyroscope-nonsingular", "--method", "lie-rkmk4", "--dt", "-0.1"], "--dt: expected a positive"),
+    (["report", "--workers", "0"], "--workers: expected a positive number"),
+])
+def test_argument_errors_exit_2(capsys, argv, match):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert match in err and "Traceback" not in err
+
+
+def test_cli_subprocess_bad_input_has_no_traceback(tmp_path):
+    proc = xcheck("converge", str(tmp_path / "missing.toml"))
+    assert proc.returncode == 2
+    assert "cannot read the scenario" in proc.stderr and "Traceback" not in proc.stderr
+
+
+# ------------------------------------------------------------------------------------------------
+# an interrupted run leaves no half report and does not move latest
+# ------------------------------------------------------------------------------------------------
+def test_interrupt_leaves_no_half_report(tmp_path, monkeypatch, capsys):
+    out = tmp_path / "reports"
+    assert main(["report", "tumbler-intermediate-axis", "--quick", "--out", str(out), "--workers", "1"]) == 0
+    before = sorted(p.name for p in out.iterdir())
+    target = (out / "latest").resolve()
+
+    import xcheck.report.render as render
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(render, "_html", interrupted)
+    assert main(["report", "tumbler-intermediate-axis", "--quick", "--out", str(out), "--workers", "1"]) == 130
+    assert "no report was written" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == before
+    assert (out / "latest").resolve() == target

@@ -1,0 +1,219 @@
+"""Report figures (matplotlib, Agg backend): convergence like seed 004 Fig. 12, errors and invariants
+against time, and the time histories of seed 001 (Figs. 13-23) and seed 004 (Figs. 9-11)."""
+
+from __future__ import annotations
+
+import warnings
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .. import rotations as rot  # noqa: E402
+
+__all__ = ["scenario_figures"]
+
+_STYLE = {"figure.dpi": 100, "savefig.dpi": 100, "font.size": 9, "axes.grid": True, "grid.alpha": 0.3,
+          "axes.spines.top": False, "axes.spines.right": False, "legend.fontsize": 7}
+_MARKERS = "osD^v<>pPXh*"
+
+
+def _colors(names):
+    cmap = plt.get_cmap("tab20")
+    return {n: cmap(i % 20) for i, n in enumerate(names)}
+
+
+def scenario_figures(data: dict, series: dict, out_dir, *, quick: bool = False) -> list[tuple[str, str]]:
+    """Write the figures of one scenario as PNG into ``out_dir``; returns ``[(file name, caption)]``.
+    ``quick``: only the convergence, error and invariant figures and the first time-history figure."""
+    from pathlib import Path
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    name = data["scenario"]
+    figs = []
+    with plt.rc_context(_STYLE), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        colors = _colors(list(data["methods"]))
+        figs.append(_save(_convergence(data, colors), out_dir, f"{name}-convergence.png",
+                          "Attitude error at the final time against the step (log-log), with slope guides for "
+                          "orders 1 and 4; below the shaded line errors are at the study's floor (round-off or "
+                          "the reference's own accuracy). Like seed 004 Fig. 12."))
+        if series:
+            figs.append(_save(_error_vs_time(series, colors), out_dir, f"{name}-error.png",
+                              "Attitude error against time for the finest step of each method."))
+            if data.get("torque") is None:
+                figs.append(_save(_invariants(series, colors), out_dir, f"{name}-invariants.png",
+                                  "Relative drift of kinetic energy and world angular momentum (torque free: both "
+                                  "are conserved)."))
+            if data.get("torque") is None and "euler-rk4" in data["methods"]:
+                figs += _euler_histories(data, series, out_dir, name, quick)
+            if data.get("torque") is not None:
+                figs += _torqued_histories(data, series, out_dir, name)
+    return figs
+
+
+def _save(fig, out_dir, file, caption):
+    fig.savefig(out_dir / file, bbox_inches="tight")
+    plt.close(fig)
+    return file, caption
+
+
+def _convergence(data, colors):
+    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    all_dt, all_e = [], []
+    for i, (name, entry) in enumerate(data["methods"].items()):
+        dt = np.array([r["dt"] for r in entry["runs"] if r["attitude_error"] is not None])
+        e = np.array([r["attitude_error"] for r in entry["runs"] if r["attitude_error"] is not None])
+        if len(dt) == 0:
+            continue
+        e = np.maximum(e, 1e-17)
+        order = entry["observed_order"]
+        label = f"{name} (p = {order:.2f})" if order is not None else name
+        ls = "--" if entry["engine"] == "mujoco" else "-"
+        ax.loglog(dt, e, ls, marker=_MARKERS[i % len(_MARKERS)], ms=4, lw=1.2, color=colors[name], label=label)
+        all_dt += list(dt)
+        all_e += list(e)
+    if all_dt:
+        dmin, dmax = min(all_dt), max(all_dt)
+        x = np.array([dmin, dmax])
+        emax = max(all_e)
+        for p, txt in ((1, "order 1"), (4, "order 4")):
+            y = emax * 3 * (x / dmax) ** p
+            ax.loglog(x, y, ":", color="0.4", lw=1)
+            ax.annotate(txt, (x[0], y[0]), fontsize=7, color="0.3", xytext=(2, 2), textcoords="offset points")
+        floor = data.get("order_floor", 1e-12)
+        ax.axhspan(1e-17, floor, color="0.85", alpha=0.5, lw=0)
+        ax.axhline(floor, color="0.5", lw=0.8)
+        ax.set_ylim(max(min(all_e) / 3, 1e-17), min(emax * 30, 10))
+    ax.set_xlabel("step Δt [s]")
+    ax.set_ylabel("attitude error at t = T [rad]")
+    ax.set_title(f"{data['scenario']}: convergence against the {data['reference']} reference")
+    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
+    return fig
+
+
+def _error_vs_time(series, colors):
+    fig, ax = plt.subplots(figsize=(7.5, 3.6))
+    for name, s in series.items():
+        e = np.maximum(np.asarray(s["attitude_error"], float), 1e-17)
+        ax.semilogy(s["t"], e, lw=1, color=colors.get(name), label=f"{name} (Δt = {s['dt']:.3g} s)")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("attitude error [rad]")
+    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
+    return fig
+
+
+def _invariants(series, colors):
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7.5, 4.8), sharex=True)
+    for name, s in series.items():
+        a1.semilogy(s["t"], np.maximum(np.abs(s["energy_drift"]), 1e-18), lw=1, color=colors.get(name), label=name)
+        a2.semilogy(s["t"], np.maximum(s["momentum_drift"], 1e-18), lw=1, color=colors.get(name))
+    a1.set_ylabel("|E/E0 - 1|")
+    a2.set_ylabel("|H - H0| / |H0|")
+    a2.set_xlabel("t [s]")
+    a1.legend(loc="center left", bbox_to_anchor=(1.01, 0.0), frameon=False)
+    return fig
+
+
+def _quaternion_method(series):
+    for m in ("lie-rkmk4", "formulation-2", "formulation-1", "mujoco-rk4"):
+        if m in series:
+            return m
+    return next(iter(series), None)
+
+
+def _euler_histories(data, series, out_dir, name, quick=False):
+    """Seed 001 Figs. 13-23: Euler angles from the Euler-angle run and converted from a quaternion run,
+    their rates, the body rates and the quaternion components."""
+    seq = data["initial"].get("euler_sequence", "323")
+    qm = _quaternion_method(series)
+    figs = []
+    if qm is None:
+        return figs
+    sq = series[qm]
+    ang_q = rot.quat_to_euler(sq["q"], seq, warn=False)
+    ang_q = np.unwrap(ang_q, axis=0)
+    labels = [f"angle {k + 1} (axis {seq[k]})" for k in range(3)] if seq != "323" else ["ψ", "θ", "φ"]
+    se = series.get("euler-rk4")
+    fig, axes = plt.subplots(3, 1, figsize=(7.5, 6.0), sharex=True)
+    for k, ax in enumerate(axes):
+        ax.plot(sq["t"], np.degrees(ang_q[:, k]), lw=1.2, label=f"from {qm} (quaternions)")
+        if se is not None and "euler" in se:
+            ax.plot(se["t"], np.degrees(se["euler"][:, k]), "--", lw=1.2, label="euler-rk4 (Euler angles)")
+        ax.set_ylabel(f"{labels[k]} [deg]")
+    axes[0].legend(frameon=False)
+    axes[-1].set_xlabel("t [s]")
+    axes[0].set_title(f"{name}: Euler angles ({seq}), like seed 001 Figs. 13-15")
+    figs.append(_save(fig, out_dir, f"{name}-euler-angles.png",
+                      "Euler angles from the Euler-angle integration and converted from the quaternion one "
+                      "(seed 001 Figs. 13-15). Near the singularity the Euler-angle solution departs."))
+    if quick:
+        return figs
+    # rates of the angles
+    fig, axes = plt.subplots(3, 1, figsize=(7.5, 6.0), sharex=True)
+    rates_q = _safe_rates(ang_q, sq["omega"], seq)
+    for k, ax in enumerate(axes):
+        ax.plot(sq["t"], rates_q[:, k], lw=1.2, label=f"from {qm}")
+        if se is not None and "euler" in se:
+            ax.plot(se["t"], _safe_rates(se["euler"], se["omega"], seq)[:, k], "--", lw=1.2, label="euler-rk4")
+        ax.set_ylabel(f"d{labels[k]}/dt [rad/s]")
+    axes[0].legend(frameon=False)
+    axes[-1].set_xlabel("t [s]")
+    figs.append(_save(fig, out_dir, f"{name}-euler-rates.png",
+                      "Rates of the Euler angles (seed 001 Figs. 16-18); undefined (gaps) at the singularity."))
+    # body rates and quaternion components
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7.5, 5.2), sharex=True)
+    for k, c in enumerate("xyz"):
+        a1.plot(sq["t"], sq["omega"][:, k], lw=1.1, label=f"ω{c}")
+    a1.set_ylabel("body rate [rad/s]")
+    a1.legend(frameon=False, ncol=3)
+    for k, c in enumerate("wxyz"):
+        a2.plot(sq["t"], sq["q"][:, k], lw=1.1, label=f"q{c}")
+    a2.set_ylabel(f"quaternion ({qm})")
+    a2.set_xlabel("t [s]")
+    a2.legend(frameon=False, ncol=4)
+    figs.append(_save(fig, out_dir, f"{name}-rates-quaternion.png",
+                      "Body rates and quaternion components (seed 001 Figs. 19-23): smooth, with no singularity."))
+    return figs
+
+
+def _safe_rates(angles, omega, seq):
+    """Euler-angle rates for plotting: NaN (a gap in the line) where the sequence is singular."""
+    J = rot.euler_rate_matrix(angles, seq)
+    det = np.linalg.det(J)
+    good = np.abs(det) > 1e-6
+    out = np.full(np.shape(angles), np.nan)
+    if np.any(good):
+        out[good] = np.linalg.solve(J[good], np.asarray(omega)[good][..., None])[..., 0]
+    return out
+
+
+def _torqued_histories(data, series, out_dir, name):
+    """Seed 004 Figs. 9-11: torque components, quaternion components, body rates in deg/s."""
+    qm = _quaternion_method(series)
+    figs = []
+    if qm is None:
+        return figs
+    s = series[qm]
+    fig, axes = plt.subplots(3, 1, figsize=(7.5, 7.0), sharex=True)
+    if "torque" in s:
+        for k, c in enumerate("ξηζ"):
+            axes[0].plot(s["t"], s["torque"][:, k] * 1e4, lw=1.1, label=f"t'{c}")
+        axes[0].set_ylabel("torque [1e-4 N m]")
+        axes[0].legend(frameon=False, ncol=3)
+    for k, c in enumerate("0123"):
+        axes[1].plot(s["t"], s["q"][:, k], lw=1.1, label=f"e{c}")
+    axes[1].set_ylabel("Euler parameters")
+    axes[1].legend(frameon=False, ncol=4)
+    for k, c in enumerate("ξηζ"):
+        axes[2].plot(s["t"], np.degrees(s["omega"][:, k]), lw=1.1, label=f"ω{c}")
+    axes[2].set_ylabel("body rate [deg/s]")
+    axes[2].set_xlabel("t [s]")
+    axes[2].legend(frameon=False, ncol=3)
+    axes[0].set_title(f"{name}: {qm}, Δt = {s['dt']:.3g} s (like seed 004 Figs. 9-11)")
+    figs.append(_save(fig, out_dir, f"{name}-histories.png",
+                      "Torque, Euler parameters and body rates in body components (seed 004 Figs. 9-11)."))
+    return figs
