@@ -110,24 +110,24 @@ class _Reader:
             if not isinstance(value, dict):
                 self.fail(key, f"expected a table [{key}], got {type(value).__name__}")
             return value
-        if isinstance(kind, tuple) and kind[0] == "vector":
+        if isinstance(kind, tuple) and kind[0] == "vector":  # exactly n finite numbers
             n = kind[1]
             if not isinstance(value, list) or len(value) != n:
                 self.fail(key, f"expected {n} numbers, got {value!r}")
-            for v in value:
-                if isinstance(v, bool) or not isinstance(v, (int, float)):
-                    self.fail(key, f"expected {n} numbers, got {value!r}")
-                if not math.isfinite(v):
-                    self.fail(key, f"expected finite numbers, got {value!r}")
-            return np.array(value, dtype=float)
-        if kind == "numbers":
+            return np.array(self._finite_numbers(key, value), dtype=float)
+        if kind == "numbers":  # a non-empty list of finite numbers
             if not isinstance(value, list) or not value:
                 self.fail(key, f"expected a non-empty list of numbers, got {value!r}")
-            for v in value:
-                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                    self.fail(key, f"expected finite numbers, got {value!r}")
-            return [float(v) for v in value]
+            return self._finite_numbers(key, value)
         raise AssertionError(kind)
+
+    def _finite_numbers(self, key, values):
+        for v in values:
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                self.fail(key, f"expected numbers, got {values!r}")
+            if not math.isfinite(v):
+                self.fail(key, f"expected finite numbers, got {values!r}")
+        return [float(v) for v in values]
 
     def positive(self, key, default=None, required=False):
         value = self.get(key, "number", default, required)

@@ -372,8 +372,9 @@ def deriv_formulation2(t, y, dy, I, Iinv, tk, tP, tT, work):
 @jit
 def deriv_lie(t, y, yhat, dy, I, Iinv, tk, tP, tT, work):
     """Seed 004 §2.5: ``u' = dexp^-1_{-u}(w)`` (eq. 166-167) on so(3), the attitude of a stage is
-    ``p_n ∘ exp_S3(u)`` (eq. 170-171) and ``w' = f(p, w)``. ``yhat`` carries the u of the dexp argument
-    (the same as ``y`` for RKMK; the printed algorithm 172 uses 1/2 k1 in the third stage)."""
+    ``p_n ∘ exp_S3(u)`` (eq. 170-171) and ``w' = f(p, w)``. ``yhat`` carries the u of the dexp argument:
+    the same as ``y`` for RKMK4 (``lie-rkmk4``, order 4); the printed algorithm 172 uses 1/2 k1 in the
+    third stage (``lie-thesis-172``), which measures order 2 (see tableau.THESIS_172_DEXP_A)."""
     u = y[4:7]
     w = y[7:10]
     dexpinv_minus(yhat[4:7], w, dy[4:7])

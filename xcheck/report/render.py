@@ -167,7 +167,7 @@ def _markdown_scenario(sc, figs):
     out = [f"## {sc['scenario']} — {'passed' if sc['passed'] else 'FAILED'}", "", sc.get("description", ""), ""]
     ini = sc["initial"]
     out += [f"Model `{sc['model']}`, {sc['duration']:g} s, reference **{sc['reference']}**; "
-            f"q0 = {np.round(ini['quaternion'], 6).tolist()}, ω0 = {np.round(ini['angular_velocity'], 6).tolist()} "
+            f"q0 = {(np.round(ini['quaternion'], 6) + 0.0).tolist()}, ω0 = {(np.round(ini['angular_velocity'], 6) + 0.0).tolist()} "
             f"rad/s; torque: {sc['torque'] or 'none'}. Orders are measured above {sc['order_floor']:.2g} rad.", ""]
     out += ["| check | result | value | limit | note |", "|---|---|---|---|---|"]
     for c in sc["checks"]:
@@ -262,8 +262,8 @@ def _html_scenario(sc, figs, plot_dir):
            f"<p>{_e(sc.get('description', ''))}</p>"]
     ini = sc["initial"]
     out.append(f"<p class='small'>Model <code>{_e(sc['model'])}</code>, {sc['duration']:g} s, reference "
-               f"<b>{_e(sc['reference'])}</b>; q0 = {_e(np.round(ini['quaternion'], 6).tolist())}, ω0 = "
-               f"{_e(np.round(ini['angular_velocity'], 6).tolist())} rad/s; torque: {_e(sc['torque'] or 'none')}. "
+               f"<b>{_e(sc['reference'])}</b>; q0 = {_e((np.round(ini['quaternion'], 6) + 0.0).tolist())}, ω0 = "
+               f"{_e((np.round(ini['angular_velocity'], 6) + 0.0).tolist())} rad/s; torque: {_e(sc['torque'] or 'none')}. "
                f"Orders are measured on errors above {sc['order_floor']:.2g} rad.</p>")
     out.append("<table><tr><th>check</th><th>result</th><th>value</th><th>limit</th><th>note</th></tr>")
     for c in sc["checks"]:
