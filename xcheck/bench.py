@@ -17,7 +17,6 @@ Compilation is done before timing; each figure is the best of ``repeat`` runs.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 

@@ -13,11 +13,11 @@ import multiprocessing
 import numpy as np
 
 from . import rotations as rot
-from .metrics import ORDER_CEILING, ORDER_FLOOR, errors_against, invariant_drift, observed_order
-from .reference import dop853, exact_torque_free
+from .metrics import ORDER_FLOOR, errors_against, invariant_drift, observed_order
+from .reference import exact_torque_free
 from .runners import RUNNERS, RunContext
 from .scenario import Scenario, build_torque
-from .trajectory import time_grid, step_plan
+from .trajectory import step_plan
 from .versions import versions
 
 __all__ = ["run_study", "run_studies", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows"]
