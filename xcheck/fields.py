@@ -81,7 +81,7 @@ RAX1_ORBIT = dict(altitude_km=650.0, inclination_deg=72.0, raan_deg=71.2312, arg
 IGRF2010_DIPOLE_NT = np.array([-29496.57, -1586.42, 4944.26])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _interp_rows(T, t):
     """Linear interpolation of the table columns 1-3 at time ``t`` (column 0 ascending), as a tuple."""
     n = T.shape[0]
@@ -96,7 +96,7 @@ def _interp_rows(T, t):
             T[i, 3] + s * (T[i + 1, 3] - T[i, 3]))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _world_to_body(q, vx, vy, vz):
     """``R(q)^T v`` for a (not necessarily unit) quaternion ``q`` [w, x, y, z], normalised here."""
     n = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
@@ -113,7 +113,7 @@ def _world_to_body(q, vx, vy, vz):
             vz + w * tz + (x * ty - y * tx))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _orbit_dipole_world(P, t):
     """Field strength H [A/m] in world (inertial) components of a dipole Earth along a circular orbit.
 
@@ -138,7 +138,7 @@ def _orbit_dipole_world(P, t):
     return k * (3.0 * mr * rx - mx), k * (3.0 * mr * ry - my), k * (3.0 * mr * rz - mz)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _field_body(P, T, t, q):
     """Field strength H [A/m] in body components for the field described by ``P[3:]`` and ``T``."""
     kind = int(P[3])
