@@ -43,9 +43,6 @@ class Progress:
         if done >= total:
             self.stream.write("\n")
 
-    def close(self):
-        pass
-
 
 # ------------------------------------------------------------------------------------------------
 def _csv_list(text, kind, name):
@@ -137,23 +134,23 @@ def _cmd_converge(args) -> int:
 def _cmd_run(args) -> int:
     import numpy as np
 
-    from .report.io import write_text_atomic
+    from .report.io import write_trajectory_csv
     from .runners import RUNNERS
     from .scenario import resolve_scenario
-    from .study import _context, _reference
+    from .study import run_context, scenario_reference
 
     scenario = resolve_scenario(args.scenario)
     if args.method not in RUNNERS:
         raise UsageError(f"--method: unknown {args.method!r}; expected one of {', '.join(RUNNERS)}")
     if not (args.dt > 0 and np.isfinite(args.dt)):
         raise UsageError(f"--dt: expected a positive finite step in seconds, got {args.dt!r}")
-    ctx = _context(scenario)
+    ctx = run_context(scenario)
     t0 = time.perf_counter()
     traj = RUNNERS[args.method].run(ctx, args.dt)
     wall = time.perf_counter() - t0
     from . import rotations as rot
 
-    ref = _reference(scenario)
+    ref = scenario_reference(scenario)
     q_ref, w_ref, mask = ref.at(traj.t)
     err = np.where(mask, rot.attitude_error(traj.q, q_ref), np.nan)
     print(f"{scenario.name} / {args.method} at dt = {args.dt:g} s: {traj.status} ({len(traj.t) - 1} steps, "
@@ -165,14 +162,8 @@ def _cmd_run(args) -> int:
               f"reference); max over the grid {np.nanmax(err):.3e} rad")
         print(f"  body-rate error at the end: {np.linalg.norm(traj.omega[-1] - w_ref[-1]):.3e} rad/s")
     if args.csv:
-        header = "t_s,qw,qx,qy,qz,wx_rad_s,wy_rad_s,wz_rad_s,attitude_error_rad"
-        rows = np.column_stack([traj.t, traj.q, traj.omega, err])
-        if "euler" in traj.extras:
-            header += ",euler1_rad,euler2_rad,euler3_rad"
-            rows = np.column_stack([rows, traj.extras["euler"]])
-        lines = [f"# {scenario.name} / {args.method}, dt = {args.dt:g} s, status {traj.status}", header]
-        lines += [",".join("" if not np.isfinite(v) else f"{v:.17g}" for v in row) for row in rows]
-        write_text_atomic(args.csv, "\n".join(lines) + "\n")
+        write_trajectory_csv(args.csv, f"{scenario.name} / {args.method}, dt = {args.dt:g} s, status {traj.status}",
+                             traj.t, traj.q, traj.omega, err, traj.extras.get("euler"))
         print(f"  trajectory: {args.csv}")
     if args.plot:
         import matplotlib

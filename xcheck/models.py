@@ -8,7 +8,7 @@ data="mx my mz"/></custom>`` [A m^2] in body components.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -53,7 +53,6 @@ class MJCFBody(RigidBody):
     body_id: int = 1
     qpos_adr: int = 0
     dof_adr: int = 0
-    inertia_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
 
 def load_body(path) -> MJCFBody:
@@ -143,8 +142,7 @@ def load_mujoco(path) -> tuple[mujoco.MjModel, MJCFBody]:
     try:
         body = MJCFBody(inertia=inertia, mass=float(model.body_mass[body_id]), dipole=dipole,
                         name=body_name if not body_name.startswith("#") else path.stem, path=where,
-                        notes=tuple(notes), body_id=body_id, qpos_adr=int(model.jnt_qposadr[jnt]), dof_adr=dof,
-                        inertia_offset=model.body_ipos[body_id].copy())
+                        notes=tuple(notes), body_id=body_id, qpos_adr=int(model.jnt_qposadr[jnt]), dof_adr=dof)
     except ValueError as exc:
         raise ModelError(f"{where}: body '{body_name}': {exc}") from None
     for note in notes:

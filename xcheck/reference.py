@@ -17,7 +17,7 @@ from . import rotations as rot
 from .body import principal_axes, validate_inertia
 from .trajectory import continuous_quaternions
 
-__all__ = ["exact_torque_free", "dop853", "fine", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL"]
+__all__ = ["exact_torque_free", "dop853", "dop853_solution", "fine", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL"]
 
 #: Principal moments closer than this (relative to the largest) are treated as equal (axisymmetry).
 EQUAL_MOMENTS_RTOL = 1e-12
@@ -184,18 +184,30 @@ def rigid_body_rhs(inertia, torque=None):
     return f
 
 
-def dop853(inertia, q0, omega0, t, *, torque=None, rtol: float = 1e-13, atol: float = 1e-15):
-    """High-accuracy reference: scipy DOP853 on ``[q, omega]`` (rtol 1e-13, atol 1e-15), quaternion
-    normalised at output. ``t`` ascending from 0. Returns ``q`` (n, 4), ``omega`` (n, 3)."""
-    I, q0, omega0, t = _inputs(inertia, q0, omega0, t)
-    if np.any(np.diff(t) < 0) or t[0] < 0:
-        raise ValueError("t: expected ascending times from 0")
-    sol = solve_ivp(rigid_body_rhs(I, torque), (0.0, float(t[-1])), np.concatenate([q0, omega0]),
-                    method="DOP853", t_eval=t, rtol=rtol, atol=atol)
+def dop853_solution(inertia, q0, omega0, duration: float, *, torque=None, rtol: float = 1e-13,
+                    atol: float = 1e-15):
+    """High-accuracy reference: scipy DOP853 on ``[q, omega]`` from 0 to ``duration`` (rtol 1e-13, atol 1e-15),
+    as a function ``t (n,) -> (q (n, 4) normalised, omega (n, 3))`` on its dense output."""
+    I, q0, omega0, _ = _inputs(inertia, q0, omega0, [0.0])
+    sol = solve_ivp(rigid_body_rhs(I, torque), (0.0, float(duration)), np.concatenate([q0, omega0]),
+                    method="DOP853", rtol=rtol, atol=atol, dense_output=True)
     if sol.status != 0:
         raise RuntimeError(f"dop853 reference failed: {sol.message}")
-    q = sol.y[:4].T
-    return continuous_quaternions(q / np.linalg.norm(q, axis=1, keepdims=True)), sol.y[4:].T
+
+    def at(t):
+        y = sol.sol(np.asarray(t, dtype=float)).T
+        return y[:, :4] / np.linalg.norm(y[:, :4], axis=1, keepdims=True), y[:, 4:]
+
+    return at
+
+
+def dop853(inertia, q0, omega0, t, *, torque=None, rtol: float = 1e-13, atol: float = 1e-15):
+    """:func:`dop853_solution` at the times ``t`` (ascending from 0). Returns ``q`` (n, 4), ``omega`` (n, 3)."""
+    _, _, _, t = _inputs(inertia, q0, omega0, t)
+    if np.any(np.diff(t) < 0) or t[0] < 0:
+        raise ValueError("t: expected ascending times from 0")
+    q, w = dop853_solution(inertia, q0, omega0, t[-1], torque=torque, rtol=rtol, atol=atol)(t)
+    return continuous_quaternions(q), w
 
 
 def fine(method, inertia, q0, omega0, *, duration: float, torque=None, dt: float = 1e-4, sequence="323"):

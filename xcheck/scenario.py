@@ -56,7 +56,6 @@ class Scenario:
     q0: np.ndarray
     omega0: np.ndarray
     sequence: str = "323"
-    euler0: np.ndarray | None = None  # initial Euler angles [rad] when given that way
     description: str = ""
     torque: dict | None = None  # the [torque] table as read (kind, field, parameters)
     steps: tuple = DEFAULT_STEPS
@@ -240,7 +239,7 @@ def load_scenario(path) -> Scenario:
     ck.finish()
 
     scenario = Scenario(name=name, path=path, model=model, duration=duration, q0=q0, omega0=omega0,
-                        sequence=sequence, euler0=euler0, description=description, torque=torque, steps=steps,
+                        sequence=sequence, description=description, torque=torque, steps=steps,
                         quick_steps=quick_steps, methods=methods, reference=reference,
                         reference_method=reference_method, reference_dt=reference_dt, checks=checks)
     # the model must load, and the torque must be buildable for this duration

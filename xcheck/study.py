@@ -14,7 +14,7 @@ import numpy as np
 
 from . import rotations as rot
 from .metrics import ORDER_FLOOR, errors_against, invariant_drift, observed_order
-from .reference import exact_torque_free
+from .reference import dop853_solution, exact_torque_free
 from .runners import RUNNERS, RunContext
 from .scenario import Scenario, build_torque
 from .trajectory import step_plan
@@ -66,7 +66,7 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     tasks = [(scenario, m, tuple(steps)) for m in methods]
     results = _map(_run_method, tasks, workers=workers, progress=progress, pool=pool,
                    labels=[f"{scenario.name}: {m}" for m in methods])
-    return assemble(scenario, methods, steps, results, quick=quick and not steps_given)
+    return assemble(scenario, steps, results, quick=quick and not steps_given)
 
 
 def make_pool(workers: int | None = None) -> ProcessPoolExecutor:
@@ -88,7 +88,7 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
     results = _map(_run_method, tasks, workers=workers, progress=progress, pool=pool, labels=labels)
     out, i = [], 0
     for sc, methods, steps in plans:
-        out.append(assemble(sc, methods, steps, results[i:i + len(methods)], quick=quick))
+        out.append(assemble(sc, steps, results[i:i + len(methods)], quick=quick))
         i += len(methods)
     return out
 
@@ -140,7 +140,7 @@ def _cached(kind, scenario, make):
     return _CACHE[key]
 
 
-def _context(scenario: Scenario) -> RunContext:
+def run_context(scenario: Scenario) -> RunContext:
     def make():
         from .models import load_body
 
@@ -158,15 +158,10 @@ class _Reference:
         self.kind = scenario.reference
         self.scenario, self.ctx = scenario, ctx
         if self.kind == "dop853":
-            from scipy.integrate import solve_ivp
-
-            from .reference import rigid_body_rhs
-
-            self.sol = solve_ivp(rigid_body_rhs(ctx.inertia, ctx.torque), (0.0, ctx.duration),
-                                 np.concatenate([ctx.q0, ctx.omega0]), method="DOP853", rtol=1e-13, atol=1e-15,
-                                 dense_output=True)
-            if self.sol.status != 0:
-                raise RuntimeError(f"{scenario.path}: the DOP853 reference failed: {self.sol.message}")
+            try:
+                self.dense = dop853_solution(ctx.inertia, ctx.q0, ctx.omega0, ctx.duration, torque=ctx.torque)
+            except RuntimeError as exc:
+                raise RuntimeError(f"{scenario.path}: {exc}") from None
         elif self.kind == "fine":
             runner = RUNNERS[scenario.reference_method]
             self.fine = runner.run(ctx, scenario.reference_dt)
@@ -180,20 +175,18 @@ class _Reference:
             q, w = exact_torque_free(self.ctx.inertia, self.ctx.q0, self.ctx.omega0, t)
             return q, w, np.ones(len(t), bool)
         if self.kind == "dop853":
-            y = self.sol.sol(t).T
-            q = y[:, :4] / np.linalg.norm(y[:, :4], axis=1, keepdims=True)
-            return q, y[:, 4:], np.ones(len(t), bool)
-        # fine: only at times on its own grid
-        idx = np.rint(t / self.scenario.reference_dt).astype(np.int64)
-        on_grid = np.abs(idx * self.scenario.reference_dt - t) <= 1e-9 * np.maximum(1.0, t)
-        on_grid |= np.isclose(t, self.fine.t[-1], rtol=0, atol=1e-12)
-        idx = np.where(np.isclose(t, self.fine.t[-1], rtol=0, atol=1e-12), len(self.fine.t) - 1, idx)
-        idx = np.clip(idx, 0, len(self.fine.t) - 1)
+            q, w = self.dense(t)
+            return q, w, np.ones(len(t), bool)
+        # fine: only at times on its own grid (its last point is the duration, whatever the step)
+        dt, last = self.scenario.reference_dt, len(self.fine.t) - 1
+        at_end = np.abs(t - self.fine.t[-1]) <= 1e-12
+        idx = np.where(at_end, last, np.clip(np.rint(t / dt).astype(np.int64), 0, last))
+        on_grid = at_end | (np.abs(idx * dt - t) <= 1e-9 * np.maximum(1.0, t))
         return self.fine.q[idx], self.fine.omega[idx], on_grid
 
 
-def _reference(scenario: Scenario) -> _Reference:
-    return _cached("reference", scenario, lambda: _Reference(scenario, _context(scenario)))
+def scenario_reference(scenario: Scenario) -> _Reference:
+    return _cached("reference", scenario, lambda: _Reference(scenario, run_context(scenario)))
 
 
 def _run_method(scenario: Scenario, method: str, steps: tuple) -> dict:
@@ -201,8 +194,8 @@ def _run_method(scenario: Scenario, method: str, steps: tuple) -> dict:
     import warnings
 
     warnings.filterwarnings("ignore", category=UserWarning, module="xcheck.models")
-    ctx = _context(scenario)
-    ref = _reference(scenario)
+    ctx = run_context(scenario)
+    ref = scenario_reference(scenario)
     runner = RUNNERS[method]
     torque_free = ctx.torque is None
     runs, finest = [], None
@@ -281,7 +274,7 @@ def study_floor(results) -> float:
     return max(ORDER_FLOOR, 10 * min(errs)) if errs else ORDER_FLOOR
 
 
-def assemble(scenario: Scenario, methods, steps, results, *, quick: bool = False) -> StudyResult:
+def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> StudyResult:
     """Orders, checks and verdict from the workers' results. ``quick``: the final-error and invariant
     checks, which are about the finest steps of the full study, are not applied."""
     checks_cfg = scenario.checks

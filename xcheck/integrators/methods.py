@@ -84,14 +84,16 @@ def _dec_dcm(y, seq):
     return continuous_quaternions(rot.dcm_to_quat(R)), y[:, 9:12].copy(), {"orthogonality": ortho}
 
 
-def _dec_gibbs(y, seq):
-    q = rot.quat_mul(y[:, 0:4], rot.gibbs_to_quat(y[:, 4:7]))
-    return continuous_quaternions(q), y[:, 7:10].copy(), {}
+def _dec_local(to_quat):
+    """Decoder of a local-chart state ``q_ref(4), v(3), w(3)``: attitude ``q_ref ⊗ to_quat(v)``."""
+    def decode(y, seq):
+        q = rot.quat_mul(y[:, 0:4], to_quat(y[:, 4:7]))
+        return continuous_quaternions(q), y[:, 7:10].copy(), {}
+    return decode
 
 
-def _dec_rotvec(y, seq):
-    q = rot.quat_mul(y[:, 0:4], rot.rotvec_to_quat(y[:, 4:7]))
-    return continuous_quaternions(q), y[:, 7:10].copy(), {}
+_dec_gibbs = _dec_local(rot.gibbs_to_quat)
+_dec_rotvec = _dec_local(rot.rotvec_to_quat)
 
 
 METHODS: dict[str, Method] = {m.name: m for m in [

@@ -27,3 +27,19 @@ def write_text_atomic(path, text: str) -> None:
 
 def write_json_atomic(path, data) -> None:
     write_text_atomic(path, json.dumps(data, indent=1, allow_nan=False) + "\n")
+
+
+def write_trajectory_csv(path, comment: str, t, q, omega, attitude_error, euler=None) -> None:
+    """A trajectory as CSV: a ``#`` comment line, a header, then ``t, q (4), omega (3), error`` (and three
+    Euler angles if given), 17 significant digits; a non-finite value (an error where the reference is
+    not defined) is an empty field."""
+    import numpy as np
+
+    header = ["t_s", "qw", "qx", "qy", "qz", "wx_rad_s", "wy_rad_s", "wz_rad_s", "attitude_error_rad"]
+    cols = [np.asarray(t)[:, None], q, omega, np.asarray(attitude_error)[:, None]]
+    if euler is not None:
+        header += ["euler1_rad", "euler2_rad", "euler3_rad"]
+        cols.append(euler)
+    lines = [f"# {comment}", ",".join(header)]
+    lines += [",".join("" if not np.isfinite(v) else f"{v:.17g}" for v in row) for row in np.hstack(cols)]
+    write_text_atomic(path, "\n".join(lines) + "\n")

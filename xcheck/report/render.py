@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..versions import machine, versions
-from .io import write_json_atomic, write_text_atomic
+from .io import write_json_atomic, write_text_atomic, write_trajectory_csv
 
 __all__ = ["write_report", "REPORT_SCHEMA", "verdict_of"]
 
@@ -96,19 +96,12 @@ def _point_latest(out_root: Path, final: Path):
 def _write_csvs(st, folder: Path):
     folder.mkdir(parents=True, exist_ok=True)
     for method, s in st.series.items():
-        cols = [s["t"][:, None], s["q"], s["omega"], s["attitude_error"][:, None]]
-        header = ["t_s", "qw", "qx", "qy", "qz", "wx_rad_s", "wy_rad_s", "wz_rad_s", "attitude_error_rad"]
-        if "euler" in s:
-            cols.append(s["euler"])
-            header += ["euler1_rad", "euler2_rad", "euler3_rad"]
-        table = np.hstack(cols)
-        lines = [f"# {st.data['scenario']} / {method}: the finest run (dt = {s['dt']:.6g} s), sampled every "
-                 f"{max(s['dt'], 1 / 256):.6g} s; q [w, x, y, z] body->world, body rates in body components; "
-                 "attitude error against the reference (empty where it is not defined)",
-                 ",".join(header)]
-        for row in table:
-            lines.append(",".join("" if not np.isfinite(v) else f"{v:.17g}" for v in row))
-        write_text_atomic(folder / f"{method}.csv", "\n".join(lines) + "\n")
+        write_trajectory_csv(
+            folder / f"{method}.csv",
+            f"{st.data['scenario']} / {method}: the finest run (dt = {s['dt']:.6g} s), sampled every "
+            f"{max(s['dt'], 1 / 256):.6g} s; q [w, x, y, z] body->world, body rates in body components; "
+            "attitude error against the reference (empty where it is not defined)",
+            s["t"], s["q"], s["omega"], s["attitude_error"], s.get("euler"))
 
 
 # ------------------------------------------------------------------------------------------------
