@@ -1,7 +1,8 @@
 """The integrators' hot loop: one stage-arithmetic function for every Butcher tableau, and each method's
 stage derivative written as the seed writes it.
 
-This module is compiled by numba (``cache=True``: compiled once per environment, then loaded in ~0.2 s)
+This module is compiled by numba (``cache=True``: compiled once per user and release into the folder of
+:mod:`xcheck._jit`, then loaded in ~0.2 s)
 when the torque is one of xcheck's torque models (:mod:`xcheck.fields`, plain data). For an arbitrary
 Python torque callable the *same source* is loaded a second time as ``..._kernels_python`` with ``jit``
 the identity, and runs in the interpreter: one code path per method, fast or general.
@@ -49,37 +50,13 @@ if PYTHON_MODE:  # the interpreted twin: same code, Python torque callables
 else:
     import warnings
 
-    import numba
     from numba.extending import overload
 
     from .. import fields
+    from .._jit import numba  # numba with xcheck's cache folder (outside the installed package)
 
     # numba's pedantic SSA check misfires on IR-inlined code ("variable ... is not in scope"); harmless
     warnings.filterwarnings("ignore", category=numba.core.errors.NumbaIRAssumptionWarning)
-
-    def _invalidate_stale_cache():
-        """numba's cache checks only a function's own file; these kernels compile in the torque code of
-        fields.py, so their cache entries must also go when fields.py changes (a development hazard:
-        an installed release changes every file at once)."""
-        import hashlib
-        from pathlib import Path
-
-        deps = [Path(__file__), Path(fields.__file__)]
-        stamp = hashlib.sha256(b"".join(p.read_bytes() for p in deps)).hexdigest()
-        cache = Path(__file__).parent / "__pycache__"
-        marker = cache / "_kernels.deps"
-        try:
-            if marker.is_file() and marker.read_text() == stamp:
-                return
-            for f in list(cache.glob("_kernels.*.nbi")) + list(cache.glob("_kernels.*.nbc")):
-                f.unlink(missing_ok=True)
-            cache.mkdir(exist_ok=True)
-            marker.write_text(stamp)
-        except OSError:
-            pass  # a read-only install: numba keeps its cache elsewhere, and releases change every file
-
-    if not INLINED:
-        _invalidate_stale_cache()
 
     # The stage loop and `run` are always inlined into the per-method entry points at the end (that is
     # what makes the method a compile-time constant). Helpers and stage derivatives are compiled once

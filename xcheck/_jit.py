@@ -1,0 +1,90 @@
+"""numba for xcheck, with the compiled-code cache kept out of the installed package.
+
+By default numba caches compiled functions beside their source, in ``__pycache__`` folders inside
+``site-packages/xcheck``. ``pip`` does not know those files: an uninstall leaves them, and the leftover
+``xcheck/`` folder (no ``__init__.py``) then shadows a later editable install (issue 8). Every xcheck function
+compiled with ``cache=True`` is therefore cached in a per-user folder instead:
+
+    ``$XCHECK_CACHE_DIR``, else ``$XDG_CACHE_HOME/xcheck``, else ``~/.cache/xcheck``,
+    then ``numba-<xcheck version>-<hash of the compiled sources>/<the source's folder in the package>``.
+
+The hash covers every compiled source file (:data:`COMPILED_SOURCES`) together, because the kernels compile
+the torque code of ``fields.py`` into themselves and numba checks only a function's own file. A checkout and an
+installed copy of the same release share the folder (numba's own stamp is the file's content). A user who sets
+``NUMBA_CACHE_DIR`` or ``NUMBA_CACHE_LOCATOR_CLASSES`` keeps numba's own behaviour. Functions outside xcheck
+are not affected.
+
+Import numba's decorators from here (``from ._jit import njit``) so that the locator is in place before the
+first ``cache=True`` function is defined.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from functools import lru_cache
+from pathlib import Path
+
+import numba
+from numba import njit, prange  # noqa: F401  (re-exported)
+from numba.core import caching, config
+
+from . import __version__
+
+__all__ = ["njit", "prange", "numba", "cache_root", "COMPILED_SOURCES"]
+
+PACKAGE = Path(__file__).resolve().parent
+#: The package files with ``cache=True`` functions, relative to the package folder.
+COMPILED_SOURCES = ("fields.py", "integrators/_kernels.py")
+
+
+def _user_cache_home() -> Path:
+    if os.environ.get("XCHECK_CACHE_DIR"):
+        return Path(os.environ["XCHECK_CACHE_DIR"]).expanduser()
+    if os.environ.get("XDG_CACHE_HOME"):
+        return Path(os.environ["XDG_CACHE_HOME"]).expanduser() / "xcheck"
+    if os.name == "nt" and os.environ.get("LOCALAPPDATA"):
+        return Path(os.environ["LOCALAPPDATA"]) / "xcheck" / "cache"
+    return Path.home() / ".cache" / "xcheck"
+
+
+@lru_cache(maxsize=1)
+def cache_root() -> Path:
+    """The folder of this release's compiled code (see the module docstring)."""
+    digest = hashlib.sha256()
+    for rel in COMPILED_SOURCES:
+        digest.update((PACKAGE / rel).read_bytes())
+    return _user_cache_home() / f"numba-{__version__}-{digest.hexdigest()[:12]}"
+
+
+class XcheckCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):
+    """numba cache locator for xcheck's own source files only (others: ``from_function`` returns None)."""
+
+    def __init__(self, py_func, py_file):
+        self._py_file = py_file
+        self._lineno = py_func.__code__.co_firstlineno
+        rel = Path(py_file).resolve().parent.relative_to(PACKAGE)
+        self._cache_path = str(cache_root() / rel)
+
+    def get_cache_path(self):
+        return self._cache_path
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if config.CACHE_DIR:  # the user's NUMBA_CACHE_DIR wins
+            return None
+        try:
+            Path(py_file).resolve().relative_to(PACKAGE)
+        except ValueError:
+            return None
+        # the mixin checks that the file exists and that the folder can be created and written; None if not
+        return super().from_function(py_func, py_file)
+
+
+def _install() -> None:
+    impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl
+    if XcheckCacheLocator not in impl._locator_classes:
+        impl._locator_classes = [XcheckCacheLocator, *impl._locator_classes]
+
+
+_install()
