@@ -10,20 +10,27 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate import solve_ivp
 from scipy.special import ellipj, ellipk, ellipkinc
 
 from . import rotations as rot
 from .body import principal_axes, validate_inertia
 from .trajectory import continuous_quaternions
 
-__all__ = ["exact_torque_free", "dop853", "dop853_solution", "fine", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL"]
+__all__ = ["exact_torque_free", "dop853", "dop853_solution", "fine", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL",
+           "ReferenceFailure", "solve_bounded"]
 
 #: Principal moments closer than this (relative to the largest) are treated as equal (axisymmetry).
 EQUAL_MOMENTS_RTOL = 1e-12
 #: Quadrature panels span at most this much of the elliptic argument tau (10 Gauss-Legendre nodes each).
 _PANEL_TAU = 0.25
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(10)
+#: At most this many quadrature panels in one evaluation (memory: ~10 floats a node, 10 nodes a panel).
+_MAX_PANELS = 2_000_000
+
+
+class ReferenceFailure(RuntimeError):
+    """A reference (or scipy solver run) that cannot be computed within its budget; the message says why
+    and what to change."""
 
 
 def _inputs(inertia, q0, omega0, t):
@@ -148,7 +155,11 @@ def _cumulative_quadrature(f, t, max_panel):
     longer than ``max_panel`` between consecutive knots (the requested times and 0)."""
     knots, inverse = np.unique(np.concatenate([[0.0], t]), return_inverse=True)
     lengths = np.diff(knots)
-    counts = np.maximum(1, np.ceil(lengths / max_panel).astype(int))
+    counts = np.maximum(1, np.ceil(lengths / max_panel).astype(np.int64))
+    if counts.sum() > _MAX_PANELS:
+        raise ReferenceFailure(f"the exact reference would need {counts.sum():.3g} quadrature panels (at most "
+                               f"{_MAX_PANELS}): the body turns too fast over this duration; shorten it or lower "
+                               "the rates")
     # panels: each knot interval split into `counts` equal parts
     seg = np.repeat(np.arange(len(lengths)), counts)
     k = np.arange(len(seg)) - np.repeat(np.cumsum(counts) - counts, counts)
@@ -184,18 +195,69 @@ def rigid_body_rhs(inertia, torque=None):
     return f
 
 
+#: The effort bound of a scipy solver run: at most this many steps, and this many seconds of wall time.
+SOLVER_MAX_STEPS = 100_000
+SOLVER_MAX_SECONDS = 60.0
+#: DOP853 at rtol 1e-13 takes 3.6-5.8 steps per radian turned on the bundled scenarios: a run whose
+#: ``|omega0| T`` predicts more steps than the budget is refused before it starts.
+_DOP853_STEPS_PER_RAD = 3.0
+
+
+def solve_bounded(method, fun, y0, duration: float, *, rtol: float, atol: float, what: str,
+                  max_steps: int | None = None, max_seconds: float | None = None):
+    """scipy's ``method`` (an ``OdeSolver`` class) from 0 to ``duration`` with a bounded effort; returns the
+    dense :class:`scipy.integrate.OdeSolution`. :class:`ReferenceFailure` (naming ``what``) when the solver
+    fails, the state becomes non-finite, or the run takes more than ``max_steps`` steps or ``max_seconds``
+    (default :data:`SOLVER_MAX_STEPS`, :data:`SOLVER_MAX_SECONDS`)."""
+    import time
+
+    from scipy.integrate import OdeSolution
+
+    max_steps = SOLVER_MAX_STEPS if max_steps is None else max_steps
+    max_seconds = SOLVER_MAX_SECONDS if max_seconds is None else max_seconds
+
+    solver = method(fun, 0.0, y0, float(duration), rtol=rtol, atol=atol)
+    ts, pieces = [0.0], []
+    start = time.perf_counter()
+    while solver.status == "running":
+        message = solver.step()
+        if solver.status == "failed":
+            raise ReferenceFailure(f"{what} failed at t = {solver.t:.6g} s: {message}")
+        if not np.all(np.isfinite(solver.y)):
+            raise ReferenceFailure(f"{what} became non-finite at t = {solver.t:.6g} s")
+        ts.append(solver.t)
+        pieces.append(solver.dense_output())
+        elapsed = time.perf_counter() - start
+        if solver.status == "running" and (len(pieces) >= max_steps or elapsed > max_seconds):
+            raise ReferenceFailure(
+                f"{what} gave up at t = {solver.t:.6g} of {duration:g} s after {len(pieces)} steps and "
+                f"{elapsed:.0f} s (its budget: {max_steps} steps or {max_seconds:g} s): the motion is too fast to "
+                f"resolve at rtol {rtol:g} over this duration; shorten the duration or lower the rates")
+    return OdeSolution(ts, pieces)
+
+
 def dop853_solution(inertia, q0, omega0, duration: float, *, torque=None, rtol: float = 1e-13,
-                    atol: float = 1e-15):
+                    atol: float = 1e-15, max_steps: int | None = None):
     """High-accuracy reference: scipy DOP853 on ``[q, omega]`` from 0 to ``duration`` (rtol 1e-13, atol 1e-15),
-    as a function ``t (n,) -> (q (n, 4) normalised, omega (n, 3))`` on its dense output."""
+    as a function ``t (n,) -> (q (n, 4) normalised, omega (n, 3))`` on its dense output.
+
+    The effort is bounded (:func:`solve_bounded`); a motion that plainly needs more than ``max_steps``
+    (estimated from ``|omega0| duration``) is refused at once. Both raise :class:`ReferenceFailure`."""
+    from scipy.integrate import DOP853
+
     I, q0, omega0, _ = _inputs(inertia, q0, omega0, [0.0])
-    sol = solve_ivp(rigid_body_rhs(I, torque), (0.0, float(duration)), np.concatenate([q0, omega0]),
-                    method="DOP853", rtol=rtol, atol=atol, dense_output=True)
-    if sol.status != 0:
-        raise RuntimeError(f"dop853 reference failed: {sol.message}")
+    max_steps = SOLVER_MAX_STEPS if max_steps is None else max_steps
+    turned = float(np.linalg.norm(omega0)) * float(duration)
+    if _DOP853_STEPS_PER_RAD * turned > max_steps:
+        raise ReferenceFailure(
+            f"the DOP853 reference would need about {_DOP853_STEPS_PER_RAD * turned:.3g} steps for |omega0| T = "
+            f"{turned:.3g} rad (its budget: {max_steps} steps): the motion is too fast to resolve at rtol {rtol:g} "
+            f"over {float(duration):g} s; shorten the duration or lower the rates")
+    sol = solve_bounded(DOP853, rigid_body_rhs(I, torque), np.concatenate([q0, omega0]), duration, rtol=rtol,
+                        atol=atol, what="the DOP853 reference", max_steps=max_steps)
 
     def at(t):
-        y = sol.sol(np.asarray(t, dtype=float)).T
+        y = sol(np.asarray(t, dtype=float)).T
         return y[:, :4] / np.linalg.norm(y[:, :4], axis=1, keepdims=True), y[:, 4:]
 
     return at

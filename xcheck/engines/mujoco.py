@@ -11,6 +11,9 @@
 * The callback is process-global: :func:`control_callback` installs and restores it. Parallel runs must
   use processes, not threads.
 * Torque-free runs use :func:`mujoco.rollout.rollout` (one C call for the whole run).
+* A blow-up is a failed run, in MuJoCo's own words: MuJoCo's warnings ("Nan, Inf or huge value in QVEL ...")
+  are collected during the run (:func:`mujoco_warnings`), and its automatic reset to the initial pose is
+  switched off so that the trajectory ends at the last good step instead of restarting from rest.
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ from ..fields import TorqueModel, torque_eval
 from ..models import MJCFBody, load_mujoco
 from ..trajectory import Trajectory, continuous_quaternions, step_plan, time_grid
 
-__all__ = ["simulate", "control_callback", "INTEGRATORS", "mujoco_version"]
+__all__ = ["simulate", "control_callback", "mujoco_warnings", "INTEGRATORS", "mujoco_version"]
 
 INTEGRATORS = {
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
@@ -51,6 +54,30 @@ def control_callback(callback):
         yield
     finally:
         mujoco.set_mjcb_control(previous)
+
+
+@contextmanager
+def mujoco_warnings():
+    """Collect MuJoCo's warning messages (a list, filled during the block) instead of printing them;
+    MuJoCo's warning handler is process-global and restored on exit."""
+    messages: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(messages.append)
+    try:
+        yield messages
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+#: MuJoCo's bound on a sane qpos/qvel/qacc entry (``mjMAXVAL``): beyond it MuJoCo calls the state unstable.
+MJ_MAXVAL = 1e10
+
+
+def _first_bad_row(qpos, qvel):
+    """Index of the first row that is non-finite or beyond :data:`MJ_MAXVAL`, or None."""
+    bad = ~np.all(np.isfinite(qpos) & (np.abs(qpos) <= MJ_MAXVAL), axis=1) | \
+        ~np.all(np.isfinite(qvel) & (np.abs(qvel) <= MJ_MAXVAL), axis=1)
+    return int(np.argmax(bad)) if np.any(bad) else None
 
 
 def _prepare(model) -> tuple[mujoco.MjModel, MJCFBody]:
@@ -99,24 +126,28 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
                          f"{type(torque).__name__}")
     m.opt.integrator = INTEGRATORS[integrator]
     m.opt.timestep = float(dt)
+    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET  # a blow-up must show, not restart from rest
     d = mujoco.MjData(m)
     qa, da = body.qpos_adr, body.dof_adr
     d.qpos[qa + 3:qa + 7] = q0
     d.qvel[da + 3:da + 6] = omega0
     t = time_grid(n, float(dt), float(duration))
-    if torque is None:
-        qpos, qvel = _rollout_free(m, d, n, last_h)
-    else:
-        qpos, qvel = _stepped(m, d, n, last_h, body, torque, torque_mode)
-    q = continuous_quaternions(qpos[:, qa + 3:qa + 7])
-    traj = Trajectory(t=t, q=q, omega=qvel[:, da + 3:da + 6].copy(), method=f"mujoco-{integrator}", dt=float(dt),
+    with mujoco_warnings() as messages:
+        if torque is None:
+            qpos, qvel = _rollout_free(m, d, n, last_h)
+        else:
+            qpos, qvel = _stepped(m, d, n, last_h, body, torque, torque_mode)
+    method = f"mujoco-{integrator}"
+    k = _first_bad_row(qpos, qvel)
+    stop = k if k is not None else (n + 1)
+    q = continuous_quaternions(qpos[:stop, qa + 3:qa + 7])
+    traj = Trajectory(t=t[:stop], q=q, omega=qvel[:stop, da + 3:da + 6].copy(), method=method, dt=float(dt),
                       extras={"mujoco_version": mujoco.__version__})
-    bad = ~np.all(np.isfinite(q), axis=1) | ~np.all(np.isfinite(traj.omega), axis=1)
-    if np.any(bad):
-        k = int(np.argmax(bad))
-        traj.t, traj.q, traj.omega = t[:k], q[:k], traj.omega[:k]
+    if messages or k is not None:
         traj.status = "failed"
-        traj.message = f"mujoco-{integrator}: the state became non-finite at t = {t[k]:.6g} s"
+        where = f"at t = {t[k]:.6g} s" if k is not None else "during the run"
+        said = " ".join(list(dict.fromkeys(m.strip() for m in messages))[:3]) or "the state became non-finite or huge"
+        traj.message = f"{method}: the simulation blew up {where}; MuJoCo: {said}"
     return traj
 
 
