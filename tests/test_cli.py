@@ -200,7 +200,7 @@ angular_velocity = [0.1, 0.2, 0.3]
     (lambda s: s.replace("[0.1, 0.2, 0.3]", "[0.1, nan, 0.3]"), r"angular_velocity: expected finite numbers"),
     (lambda s: s.replace("[1.0, 0.0, 0.0, 0.0]", "[0.0, 0.0, 0.0, 0.0]"), r"quaternion: a zero quaternion"),
     (lambda s: s + "[study]\nmethods = ['rk5']\n", r"\[study\] methods: unknown method 'rk5'"),
-    (lambda s: s + "[study]\nreference = 'dop853'\nsteps = [0.1, -0.1]\n", r"\[study\] steps: expected positive"),
+    (lambda s: s + "[study]\nreference = 'dop853'\nsteps = [0.1, -0.1]\n", r"\[study\] steps: expected a positive finite step"),
     (lambda s: s + "[torque]\nkind = 'magnetic'\nfield = 'body-table'\n[study]\nreference = 'exact'\n",
      r"\[torque\] table: missing"),
     (lambda s: s + "[torque]\nkind = 'constant'\ntorque = [0, 0, 1e-3]\n",

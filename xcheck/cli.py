@@ -1,25 +1,39 @@
 """The ``xcheck`` command line.
 
 ``xcheck list | converge | run | report | bench``. Exit codes: 0 when every check passed, 1 when a check
-failed, 2 for bad input (the message names the file, key or argument), 130 when interrupted.
+failed, 2 for bad input (the message names the file, key, argument or path), 130 when interrupted (Ctrl-C),
+143 when terminated (SIGTERM), 3 for a bug in xcheck (a one-line message asking to report it; the traceback
+with ``XCHECK_DEBUG=1``). Every input and output path is checked before any work starts.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
 import time
 import warnings
 from pathlib import Path
 
 from . import __version__
 
-EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_BUG, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 3, 130, 143
+#: The formats ``run --plot`` writes, by file ending.
+PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 
 
 class UsageError(ValueError):
     """Bad command-line input."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that it unwinds (and cleans up) like Ctrl-C."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
 
 
 # ------------------------------------------------------------------------------------------------
@@ -59,7 +73,10 @@ def _csv_list(text, kind, name):
             if not (v > 0 and v == v and v != float("inf")):
                 raise UsageError(f"{name}: {x!r} is not a positive finite step")
             out.append(v)
-        return out
+        items = out
+    repeated = sorted({str(x) for x in items if items.count(x) > 1})
+    if repeated:
+        raise UsageError(f"{name}: {', '.join(repeated)} given more than once")
     return items
 
 
@@ -107,14 +124,28 @@ def _print_study(st) -> None:
         print(f"  FAILED {c['name']}: {c['note']}")
 
 
+def _steps_arg(text, scenario):
+    from .scenario import check_steps
+
+    steps = _csv_list(text, float, "--steps")
+    try:
+        return list(check_steps(steps, scenario.duration))
+    except ValueError as exc:
+        raise UsageError(f"--steps: {exc} (scenario {scenario.name}, duration {scenario.duration:g} s)") from None
+
+
 def _cmd_converge(args) -> int:
-    from .report.io import write_json_atomic
+    from .report.io import check_output_dir, check_output_file, write_json_atomic
     from .scenario import resolve_scenario
     from .study import run_study
 
     scenario = resolve_scenario(args.scenario)
-    methods = _methods_arg(args.methods) if args.methods else None
-    steps = _csv_list(args.steps, float, "--steps") if args.steps else None
+    methods = _methods_arg(args.methods) if args.methods is not None else None
+    steps = _steps_arg(args.steps, scenario) if args.steps is not None else None
+    if args.json:
+        check_output_file(args.json, "--json", suffixes=(".json",))
+    if args.out:
+        check_output_dir(args.out, "--out")
     t0 = time.perf_counter()
     progress = Progress()
     st = run_study(scenario, methods=methods, steps=steps, quick=args.quick, workers=args.workers,
@@ -134,75 +165,100 @@ def _cmd_converge(args) -> int:
 def _cmd_run(args) -> int:
     import numpy as np
 
-    from .report.io import write_trajectory_csv
+    from . import rotations as rot
+    from .reference import ReferenceFailure
+    from .report.io import check_output_file, write_trajectory_csv
     from .runners import RUNNERS
     from .scenario import resolve_scenario
     from .study import run_context, scenario_reference
+    from .trajectory import check_step
 
     scenario = resolve_scenario(args.scenario)
     if args.method not in RUNNERS:
         raise UsageError(f"--method: unknown {args.method!r}; expected one of {', '.join(RUNNERS)}")
-    if not (args.dt > 0 and np.isfinite(args.dt)):
-        raise UsageError(f"--dt: expected a positive finite step in seconds, got {args.dt!r}")
+    try:
+        check_step(args.dt, scenario.duration, runs_at_once=1)
+    except ValueError as exc:
+        raise UsageError(f"--dt: {exc} (scenario {scenario.name}, duration {scenario.duration:g} s)") from None
+    if args.csv:
+        check_output_file(args.csv, "--csv", suffixes=(".csv",))
+    if args.plot:
+        check_output_file(args.plot, "--plot", suffixes=PLOT_SUFFIXES)
     ctx = run_context(scenario)
     t0 = time.perf_counter()
     traj = RUNNERS[args.method].run(ctx, args.dt)
     wall = time.perf_counter() - t0
-    from . import rotations as rot
-
-    ref = scenario_reference(scenario)
-    q_ref, w_ref, mask = ref.at(traj.t)
-    err = np.where(mask, rot.attitude_error(traj.q, q_ref), np.nan)
     print(f"{scenario.name} / {args.method} at dt = {args.dt:g} s: {traj.status} ({len(traj.t) - 1} steps, "
           f"{wall:.3g} s)")
     if traj.message:
         print(f"  {traj.message}")
-    if mask[-1] and traj.ok:
-        print(f"  attitude error at t = {traj.t[-1]:g} s: {err[-1]:.3e} rad (against the {scenario.reference} "
-              f"reference); max over the grid {np.nanmax(err):.3e} rad")
-        print(f"  body-rate error at the end: {np.linalg.norm(traj.omega[-1] - w_ref[-1]):.3e} rad/s")
+    try:
+        ref = scenario_reference(scenario)
+    except ReferenceFailure as exc:
+        ref = None
+        print(f"  no reference: {exc}")
+    err = np.full(len(traj.t), np.nan)
+    if ref is not None:
+        q_ref, w_ref, mask = ref.at(traj.t)
+        err = np.where(mask, rot.attitude_error(traj.q, q_ref), np.nan)
+        if mask[-1] and traj.ok:
+            print(f"  attitude error at t = {traj.t[-1]:g} s: {err[-1]:.3e} rad (against the {scenario.reference} "
+                  f"reference); max over the grid {np.nanmax(err):.3e} rad")
+            print(f"  body-rate error at the end: {np.linalg.norm(traj.omega[-1] - w_ref[-1]):.3e} rad/s")
     if args.csv:
         write_trajectory_csv(args.csv, f"{scenario.name} / {args.method}, dt = {args.dt:g} s, status {traj.status}",
                              traj.t, traj.q, traj.omega, err, traj.extras.get("euler"))
         print(f"  trajectory: {args.csv}")
     if args.plot:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, axes = plt.subplots(3, 1, figsize=(7.5, 7), sharex=True)
-        for k, c in enumerate("wxyz"):
-            axes[0].plot(traj.t, traj.q[:, k], label=f"q{c}")
-        for k, c in enumerate("xyz"):
-            axes[1].plot(traj.t, traj.omega[:, k], label=f"ω{c}")
-        axes[2].semilogy(traj.t, np.maximum(err, 1e-17))
-        axes[0].legend(ncol=4)
-        axes[1].legend(ncol=3)
-        axes[0].set_ylabel("quaternion")
-        axes[1].set_ylabel("body rate [rad/s]")
-        axes[2].set_ylabel("attitude error [rad]")
-        axes[2].set_xlabel("t [s]")
-        axes[0].set_title(f"{scenario.name} / {args.method}, dt = {args.dt:g} s")
-        tmp = Path(args.plot).with_name(f".{Path(args.plot).name}.tmp.png")
-        fig.savefig(tmp, bbox_inches="tight")
-        os.replace(tmp, args.plot)
+        _plot_run(args.plot, f"{scenario.name} / {args.method}, dt = {args.dt:g} s", traj, err)
         print(f"  plot: {args.plot}")
-    return EXIT_OK if traj.ok else EXIT_CHECK_FAILED
+    return EXIT_OK if traj.ok and ref is not None else EXIT_CHECK_FAILED
+
+
+def _plot_run(path, title, traj, err):
+    """Quaternion, body rates and attitude error of one run, in the format of ``path``'s ending."""
+    import numpy as np
+
+    from .report.plots import new_figure, save_figure
+
+    fig, axes = new_figure(3, 1, figsize=(7.5, 7), sharex=True)
+    for k, c in enumerate("wxyz"):
+        axes[0].plot(traj.t, traj.q[:, k], label=f"q{c}")
+    for k, c in enumerate("xyz"):
+        axes[1].plot(traj.t, traj.omega[:, k], label=f"ω{c}")
+    if np.any(np.isfinite(err)):
+        axes[2].semilogy(traj.t, np.maximum(err, 1e-17))
+    axes[0].legend(ncol=4)
+    axes[1].legend(ncol=3)
+    axes[0].set_ylabel("quaternion")
+    axes[1].set_ylabel("body rate [rad/s]")
+    axes[2].set_ylabel("attitude error [rad]")
+    axes[2].set_xlabel("t [s]")
+    axes[0].set_title(title)
+    save_figure(fig, path)
 
 
 def _cmd_report(args) -> int:
+    from .pool import make_pool, stop_pool
+    from .report.io import check_output_dir
     from .report.render import write_report
     from .scenario import bundled_scenarios, resolve_scenario
-    from .study import make_pool, run_studies, throughput_rows
+    from .study import run_studies, throughput_rows
 
     names = args.scenarios or list(bundled_scenarios())
     scenarios = [resolve_scenario(n) for n in names]  # every input error before any work
+    first = {}
+    for sc in scenarios:
+        if sc.name in first:
+            raise UsageError(f"two scenarios are named {sc.name!r} ({first[sc.name]} and {sc.path}): a report needs "
+                             "distinct names (they name its files)")
+        first[sc.name] = sc.path
+    check_output_dir(args.out, "--out")
     t0 = time.perf_counter()
     progress = Progress()
-    pool = make_pool(args.workers)
+    pool = make_pool(args.workers) if args.workers != 1 else None  # --workers 1: all in this process
     try:
-        studies = run_studies(scenarios, quick=args.quick, progress=progress, pool=pool)
+        studies = run_studies(scenarios, quick=args.quick, progress=progress, pool=pool, workers=args.workers)
         rows = throughput_rows(studies)
         if args.bench:
             from .bench import run_bench
@@ -210,8 +266,13 @@ def _cmd_report(args) -> int:
             rows += run_bench(quick=args.quick, repeat=1)
         folder = write_report(studies, args.out, throughput=rows, wall_time=time.perf_counter() - t0,
                               quick=args.quick, pool=pool)
-    finally:
-        pool.shutdown(wait=False, cancel_futures=True)
+        args.written = folder  # an interrupt from here on must not say "no report was written"
+    except BaseException:
+        if pool is not None:
+            stop_pool(pool)
+        raise
+    if pool is not None:
+        pool.shutdown(wait=True)
     for st in studies:
         _print_study(st)
     passed = all(st.passed for st in studies)
@@ -222,9 +283,13 @@ def _cmd_report(args) -> int:
 
 def _cmd_bench(args) -> int:
     from .bench import main as bench_main
+    from .report.io import check_output_file
 
+    if args.repeat < 1:
+        raise UsageError(f"--repeat: expected a positive number of runs, got {args.repeat}")
     argv = []
     if args.json:
+        check_output_file(args.json, "--json", suffixes=(".json",))
         argv += ["--json", args.json]
     if args.quick:
         argv.append("--quick")
@@ -275,11 +340,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from .models import ModelError
-    from .scenario import ScenarioError
-
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse's own usage errors (exit 2, message printed), --help, --version
+        return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
     if not hasattr(args, "func"):
         parser.print_help()
         return EXIT_BAD_INPUT
@@ -287,17 +352,48 @@ def main(argv: list[str] | None = None) -> int:
         print("xcheck: error: --workers: expected a positive number of processes", file=sys.stderr)
         return EXIT_BAD_INPUT
     warnings.filterwarnings("ignore", category=UserWarning, module=r"xcheck\.models")
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        return _run(args)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _run(args) -> int:
+    """``args.func(args)`` with every failure a user can cause turned into a message and an exit code."""
+    from .models import ModelError
+    from .report.io import OutputPathError
+    from .scenario import ScenarioError
+
     try:
         return args.func(args)
-    except (ScenarioError, ModelError, UsageError) as exc:
+    except (ScenarioError, ModelError, UsageError, OutputPathError) as exc:
         print(f"xcheck: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print("\nxcheck: interrupted; no report was written", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as exc:
+        written = getattr(args, "written", None)
+        what = f"the report {written} is complete" if written else "no report was written"
+        print(f"\nxcheck: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}; {what}", file=sys.stderr)
+        return EXIT_TERMINATED if isinstance(exc, Terminated) else EXIT_INTERRUPTED
     except BrokenPipeError:  # output piped into a reader that stopped (| head): stop quietly
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK
+    except MemoryError:
+        print("xcheck: error: out of memory; use larger steps or a shorter duration", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as exc:  # a file system that refuses after the checks (disk full, a folder removed meanwhile)
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"xcheck: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except Exception as exc:  # a bug: one line, unless XCHECK_DEBUG asks for the traceback
+        if os.environ.get("XCHECK_DEBUG"):
+            raise
+        print(f"xcheck: internal error: {type(exc).__name__}: {exc}\nThis is a bug in xcheck {__version__}; please "
+              "report it with the command you ran (set XCHECK_DEBUG=1 for the full traceback).", file=sys.stderr)
+        return EXIT_BUG
 
 
 if __name__ == "__main__":

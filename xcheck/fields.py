@@ -26,7 +26,8 @@ the attitude quaternion maps body to this frame.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from ._jit import njit
 
 __all__ = [
     "MU0",
@@ -317,9 +318,11 @@ def load_field_table(path) -> np.ndarray:
 
     path = Path(path)
     try:
-        lines = path.read_text().splitlines()
+        lines = path.read_bytes().decode("utf-8-sig").splitlines()
     except OSError as exc:
         raise ValueError(f"{path}: cannot read the field table ({exc.strerror})") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: not UTF-8 text (offset {exc.start}); a field table is a CSV text file") from None
     rows = []
     for number, line in enumerate(lines, start=1):
         text = line.strip()

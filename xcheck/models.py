@@ -65,8 +65,8 @@ def load_mujoco(path) -> tuple[mujoco.MjModel, MJCFBody]:
 
     Refused (:class:`ModelError` naming the file and the reason): a parse or compile error (MuJoCo's
     message, with its line), no free joint, any other joint, more than one moving body, equality
-    constraints, actuators, possible contacts, fluid forces (density or viscosity), damping, armature
-    or friction loss on the free joint. Gravity is switched off instead, with a note: a uniform field
+    constraints, actuators, tendons, plugins, flexes, possible contacts, fluid forces (density or viscosity),
+    stiffness, damping, armature or friction loss on the free joint. Gravity is switched off instead, with a note: a uniform field
     exerts no torque about the centre of mass, so the attitude motion is unchanged.
 
     Returns the prepared :class:`mujoco.MjModel` and the :class:`MJCFBody`.
@@ -114,6 +114,15 @@ def load_mujoco(path) -> tuple[mujoco.MjModel, MJCFBody]:
         if np.any(values[dof:dof + 6] != 0):
             refuse(f"the free joint has {what} {values[dof:dof + 6].tolist()}: it would change the rotational "
                    "dynamics; set it to 0")
+    if model.jnt_stiffness[jnt] != 0:
+        refuse(f"the free joint has stiffness {model.jnt_stiffness[jnt]:g}: a spring pulling the body to its "
+               "reference pose would add torque; set it to 0")
+    if model.ntendon:
+        refuse(f"{model.ntendon} tendon(s): their springs, damping and limits would add torque; remove the "
+               "<tendon> section")
+    for what, count in (("plugin", getattr(model, "nplugin", 0)), ("flex", getattr(model, "nflex", 0))):
+        if count:
+            refuse(f"{count} {what}(s): they can add forces xcheck does not model; remove them")
     if model.opt.density != 0 or model.opt.viscosity != 0:
         refuse(f"<option density={model.opt.density:g} viscosity={model.opt.viscosity:g}>: fluid forces would add "
                "torque; set both to 0")

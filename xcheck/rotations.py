@@ -132,11 +132,14 @@ def _check_seq(seq) -> tuple[int, int, int]:
 
 
 def _unit_quat(q, name: str = "q") -> np.ndarray:
+    """``q / |q|`` without overflow or underflow (scaled by its largest component first); a zero
+    quaternion is a ValueError."""
     q = _check(q, name, (4,))
-    n = np.linalg.norm(q, axis=-1, keepdims=True)
-    if np.any(n < 1e-12):
+    scale = np.max(np.abs(q), axis=-1, keepdims=True)
+    if np.any(scale == 0):
         raise ValueError(f"{name}: a zero quaternion does not represent a rotation")
-    return q / n
+    q = q / scale
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
 
 def _norm(v: np.ndarray) -> np.ndarray:

@@ -8,6 +8,7 @@ The format is documented in the README ("Scenario files").
 from __future__ import annotations
 
 import math
+import re
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,8 +23,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["Scenario", "ScenarioError", "load_scenario", "bundled_scenarios", "resolve_scenario",
-           "DEFAULT_STEPS", "QUICK_STEPS", "SCENARIO_DIR"]
+__all__ = ["Scenario", "ScenarioError", "load_scenario", "bundled_scenarios", "resolve_scenario", "check_name",
+           "check_steps", "DEFAULT_STEPS", "QUICK_STEPS", "SCENARIO_DIR"]
 
 SCENARIO_DIR = BUNDLED_MODELS / "scenarios"
 #: Seed 004 §3.3: 1/2, 1/4, ..., 1/4096 s.
@@ -43,6 +44,33 @@ DEFAULT_CHECKS = {
 
 class ScenarioError(ValueError):
     """A scenario file that cannot be used; the message names the file and the key."""
+
+
+#: A scenario name is an identifier: it names files and folders of the report.
+NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,99}")
+
+
+def check_name(name: str) -> str | None:
+    """Why ``name`` cannot name a scenario (None when it can)."""
+    if not NAME_PATTERN.fullmatch(name) or ".." in name:
+        return (f"expected an identifier (letters, digits, '-', '_' and '.', starting with a letter or digit, at "
+                f"most 100 characters, no '..'): it names the report's files; got {name!r}")
+    return None
+
+
+def check_steps(values, duration: float) -> tuple:
+    """``values`` as a tuple of steps [s] that a study can run over ``duration``, or a ValueError saying
+    why not: each positive, finite, at most the duration, within memory (:func:`~xcheck.trajectory.check_step`),
+    and no step twice."""
+    from .trajectory import check_step
+
+    seen = set()
+    for v in values:
+        if v in seen:
+            raise ValueError(f"the step {v:g} s is given twice")
+        seen.add(v)
+        check_step(v, duration)
+    return tuple(values)
 
 
 @dataclass
@@ -156,9 +184,14 @@ def load_scenario(path) -> Scenario:
     """Read and validate a scenario TOML file (relative paths are relative to the file)."""
     path = Path(path)
     try:
-        text = path.read_text()
+        raw = path.read_bytes()
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot read the scenario ({exc.strerror})") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"{path}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); a "
+                            "scenario is a TOML file, which is UTF-8") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -168,6 +201,8 @@ def load_scenario(path) -> Scenario:
         if key not in _TOP_KEYS:
             top.fail(key, f"unknown key (expected one of: {', '.join(_TOP_KEYS)})")
     name = top.get("name", "string", required=True)
+    if check_name(name):
+        top.fail("name", check_name(name))
     description = top.get("description", "string", "")
     model = top.path_("model", required=True)
     duration = top.positive("duration", required=True)
@@ -175,11 +210,14 @@ def load_scenario(path) -> Scenario:
     ini = _Reader(path, top.get("initial", "table", required=True), "initial")
     euler0 = None
     sequence = "323"
+    if ini.has("quaternion") and (ini.has("euler_angles_deg") or ini.has("euler_rates")):
+        ini.fail("quaternion", "give either quaternion + angular_velocity, or euler_angles_deg + euler_rates, "
+                               "not both")
     if ini.has("quaternion"):
         q = ini.get("quaternion", ("vector", 4))
-        if np.linalg.norm(q) < 1e-12:
+        if not np.any(q):
             ini.fail("quaternion", "a zero quaternion is not an attitude")
-        q0 = q / np.linalg.norm(q)
+        q0 = rot.quat_normalize(q)
         if ini.has("angular_velocity") == ini.has("angular_velocity_deg"):
             ini.fail("angular_velocity", "give exactly one of angular_velocity [rad/s] or angular_velocity_deg [deg/s]")
         omega0 = ini.get("angular_velocity", ("vector", 3)) if ini.has("angular_velocity") else \
@@ -209,12 +247,18 @@ def load_scenario(path) -> Scenario:
     st = _Reader(path, top.get("study", "table", {}), "study")
     steps = tuple(st.get("steps", "numbers", list(DEFAULT_STEPS)))
     quick_steps = tuple(st.get("quick_steps", "numbers", list(QUICK_STEPS)))
+    if "steps" not in st.table:  # the defaults need not fit every duration: steps longer than it are dropped
+        steps = tuple(v for v in steps if v <= duration) or (duration,)
+    if "quick_steps" not in st.table:
+        quick_steps = tuple(v for v in quick_steps if v <= duration) or (duration,)
     for key, values in (("steps", steps), ("quick_steps", quick_steps)):
-        if any(s <= 0 for s in values):
-            st.fail(key, f"expected positive steps in seconds, got {list(values)!r}")
-        if len(set(values)) != len(values):
-            st.fail(key, "steps must be distinct")
+        try:
+            check_steps(values, duration)
+        except ValueError as exc:
+            st.fail(key, str(exc) if key in st.table else f"the default steps do not fit: {exc}; give [study] {key}")
     methods = st.get("methods", "strings", None)
+    if methods is not None and not methods:
+        st.fail("methods", "expected a non-empty list of methods (leave the key out for every method)")
     reference = st.get("reference", "string", "exact")
     if reference not in ("exact", "dop853", "fine"):
         st.fail("reference", f"expected 'exact', 'dop853' or 'fine', got {reference!r}")
@@ -223,6 +267,11 @@ def load_scenario(path) -> Scenario:
                              "'fine'")
     reference_method = st.get("reference_method", "string", "lie-rkmk4")
     reference_dt = st.positive("reference_dt", 1e-4)
+    if reference == "fine":
+        try:
+            check_steps([reference_dt], duration)
+        except ValueError as exc:
+            st.fail("reference_dt", str(exc))
     from .runners import RUNNERS
 
     for key, names in (("methods", methods or []), ("reference_method", [reference_method])):
@@ -236,6 +285,11 @@ def load_scenario(path) -> Scenario:
     for key in ("order_tolerance", "order_excess", "final_error", "invariant_tolerance", "agreement"):
         checks[key] = ck.positive(key, DEFAULT_CHECKS[key])
     checks["expected_to_fail"] = ck.get("expected_to_fail", "strings", [])
+    for m in checks["expected_to_fail"]:
+        if m not in RUNNERS:
+            ck.fail("expected_to_fail", f"unknown method {m!r}; expected any of {', '.join(RUNNERS)}")
+        if methods and m not in methods:
+            ck.fail("expected_to_fail", f"{m!r} is not among the [study] methods {methods}")
     ck.finish()
 
     scenario = Scenario(name=name, path=path, model=model, duration=duration, q0=q0, omega0=omega0,

@@ -6,15 +6,15 @@ from __future__ import annotations
 
 import math
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from dataclasses import dataclass, field
-import multiprocessing
 
 import numpy as np
 
 from . import rotations as rot
 from .metrics import ORDER_FLOOR, errors_against, invariant_drift, observed_order
-from .reference import dop853_solution, exact_torque_free
+from .pool import make_pool, stop_pool
+from .reference import ReferenceFailure, dop853_solution, exact_torque_free
 from .runners import RUNNERS, RunContext
 from .scenario import Scenario, build_torque
 from .trajectory import step_plan
@@ -69,11 +69,6 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     return assemble(scenario, steps, results, quick=quick and not steps_given)
 
 
-def make_pool(workers: int | None = None) -> ProcessPoolExecutor:
-    """Worker processes for studies (spawned: no state inherited from this process)."""
-    return ProcessPoolExecutor(max_workers=workers or None, mp_context=multiprocessing.get_context("spawn"))
-
-
 def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, progress=None,
                 pool=None) -> list[StudyResult]:
     """Several studies over one pool of worker processes: every (scenario, method) pair is one task,
@@ -112,10 +107,12 @@ def _map(fn, tasks, *, workers, progress, pool, labels):
             out[i] = fut.result()
             if progress:
                 progress(done, total, labels[i])
-        return out
-    finally:
-        if own:
-            pool.shutdown(wait=True, cancel_futures=True)
+    except BaseException:
+        stop_pool(pool)
+        raise
+    if own:
+        pool.shutdown(wait=True)
+    return out
 
 
 # ------------------------------------------------------------------------------------------------
@@ -131,12 +128,18 @@ def _key(scenario: Scenario):
 
 
 def _cached(kind, scenario, make):
-    """Per-process cache of a scenario's run context and reference (a worker runs several methods)."""
+    """Per-process cache of a scenario's run context and reference (a worker runs several methods); a
+    :class:`ReferenceFailure` is cached too, so that a reference over budget is tried once per process."""
     key = (kind, _key(scenario))
     if key not in _CACHE:
         if len(_CACHE) > 16:
             _CACHE.clear()
-        _CACHE[key] = make()
+        try:
+            _CACHE[key] = make()
+        except ReferenceFailure as exc:
+            _CACHE[key] = exc
+    if isinstance(_CACHE[key], ReferenceFailure):
+        raise _CACHE[key]
     return _CACHE[key]
 
 
@@ -157,17 +160,16 @@ class _Reference:
     def __init__(self, scenario: Scenario, ctx: RunContext):
         self.kind = scenario.reference
         self.scenario, self.ctx = scenario, ctx
-        if self.kind == "dop853":
-            try:
-                self.dense = dop853_solution(ctx.inertia, ctx.q0, ctx.omega0, ctx.duration, torque=ctx.torque)
-            except RuntimeError as exc:
-                raise RuntimeError(f"{scenario.path}: {exc}") from None
+        if self.kind == "exact":  # fails early when the body turns too fast for the quadrature
+            exact_torque_free(ctx.inertia, ctx.q0, ctx.omega0, np.array([0.0, ctx.duration]))
+        elif self.kind == "dop853":
+            self.dense = dop853_solution(ctx.inertia, ctx.q0, ctx.omega0, ctx.duration, torque=ctx.torque)
         elif self.kind == "fine":
             runner = RUNNERS[scenario.reference_method]
             self.fine = runner.run(ctx, scenario.reference_dt)
             if not self.fine.ok:
-                raise RuntimeError(f"{scenario.path}: the fine reference ({scenario.reference_method} at "
-                                   f"{scenario.reference_dt:g} s) did not complete: {self.fine.message}")
+                raise ReferenceFailure(f"the fine reference ({scenario.reference_method} at {scenario.reference_dt:g} "
+                                       f"s) did not complete: {self.fine.message}")
 
     def at(self, t):
         """(q, omega, mask): reference values at the times ``t`` where it is defined (``mask``)."""
@@ -195,7 +197,11 @@ def _run_method(scenario: Scenario, method: str, steps: tuple) -> dict:
 
     warnings.filterwarnings("ignore", category=UserWarning, module="xcheck.models")
     ctx = run_context(scenario)
-    ref = scenario_reference(scenario)
+    try:
+        ref = scenario_reference(scenario)
+    except ReferenceFailure as exc:  # nothing can be measured: the study fails with the reason
+        return {"method": method, "runs": [_failed(dt, "failed", f"no reference: {exc}", 0.0) for dt in steps],
+                "series": None, "reference_error": str(exc)}
     runner = RUNNERS[method]
     torque_free = ctx.torque is None
     runs, finest = [], None
@@ -296,7 +302,12 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
                               "local_orders": fit.local_orders, "status": status, "runs": runs}
         if res["series"] is not None:
             series[name] = res["series"]
-    checks = _checks(scenario, data_methods, checks_cfg, quick)
+    reference_error = next((res["reference_error"] for res in results if res.get("reference_error")), None)
+    if reference_error:
+        checks = [{"name": "reference", "passed": False, "value": None, "limit": None,
+                   "note": f"the {scenario.reference} reference could not be computed: {reference_error}"}]
+    else:
+        checks = _checks(scenario, data_methods, checks_cfg, quick)
     data = {"schema": SCHEMA, "scenario": scenario.name, "description": scenario.description,
             "model": str(scenario.model), "duration": scenario.duration, "reference": scenario.reference,
             "torque": scenario.torque, "initial": {"quaternion": scenario.q0.tolist(),

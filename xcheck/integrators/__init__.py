@@ -83,11 +83,7 @@ def _vector(x, name, n, unit=""):
 
 
 def _unit_quaternion(q0, name="q0"):
-    q = _vector(q0, name, 4, " [w, x, y, z]")
-    norm = np.linalg.norm(q, axis=-1, keepdims=True)
-    if np.any(norm < 1e-12):
-        raise ValueError(f"{name}: a zero quaternion is not an attitude")
-    return q / norm
+    return rot._unit_quat(_vector(q0, name, 4, " [w, x, y, z]"), name)
 
 
 def _kernel_args(info: Method, sequence: str):

@@ -1,4 +1,5 @@
-"""Atomic writes: a file or folder appears under its final name only when complete."""
+"""Output paths, checked before any work, and atomic writes: a file or folder appears under its final name
+only when complete."""
 
 from __future__ import annotations
 
@@ -6,6 +7,55 @@ import json
 import os
 import tempfile
 from pathlib import Path
+
+
+class OutputPathError(ValueError):
+    """An output path that cannot be written; the message names the argument and the path."""
+
+
+def _usable_folder(folder: Path, what: str) -> None:
+    """Create ``folder`` (and its parents) if missing, and check that a file can be written in it."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise OutputPathError(f"{what}: {folder} exists and is not a folder") from None
+    except NotADirectoryError:
+        raise OutputPathError(f"{what}: {folder} cannot be created: a part of that path is a file, not a "
+                              "folder") from None
+    except OSError as exc:
+        raise OutputPathError(f"{what}: cannot create the folder {folder} ({exc.strerror})") from None
+    try:
+        tempfile.TemporaryFile(dir=folder).close()
+    except OSError as exc:
+        raise OutputPathError(f"{what}: cannot write in the folder {folder} ({exc.strerror})") from None
+
+
+def check_output_file(path, what: str, *, suffixes: tuple[str, ...] | None = None) -> Path:
+    """Check, before any work, that the file ``path`` can be written (its folder is created if missing).
+
+    ``what`` names the argument in messages (``--json``); ``suffixes`` are the allowed endings
+    (``(".png", ".svg")``), matched without regard to case. Raises :class:`OutputPathError`."""
+    p = Path(path)
+    if not str(path) or str(path).endswith(("/", os.sep)) or p.name in ("", ".", ".."):
+        raise OutputPathError(f"{what}: expected a file name, got {str(path)!r}")
+    if suffixes is not None and p.suffix.lower() not in suffixes:
+        raise OutputPathError(f"{what}: {p} must end in {', '.join(suffixes)} (the format follows the ending)")
+    if p.is_dir():
+        raise OutputPathError(f"{what}: {p} is a folder; expected a file")
+    _usable_folder(p.parent, what)
+    return p
+
+
+def check_output_dir(path, what: str) -> Path:
+    """Check, before any work, that the folder ``path`` exists or can be created and can be written.
+    Raises :class:`OutputPathError` naming ``what`` (``--out``)."""
+    p = Path(path)
+    if not str(path):
+        raise OutputPathError(f"{what}: expected a folder, got an empty path")
+    if p.exists() and not p.is_dir():
+        raise OutputPathError(f"{what}: {p} is a file; expected a folder")
+    _usable_folder(p, what)
+    return p
 
 
 def write_text_atomic(path, text: str) -> None:

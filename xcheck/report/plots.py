@@ -13,7 +13,7 @@ import numpy as np  # noqa: E402
 
 from .. import rotations as rot  # noqa: E402
 
-__all__ = ["scenario_figures"]
+__all__ = ["scenario_figures", "new_figure", "save_figure"]
 
 _STYLE = {"figure.dpi": 100, "savefig.dpi": 100, "font.size": 9, "axes.grid": True, "grid.alpha": 0.3,
           "axes.spines.top": False, "axes.spines.right": False, "legend.fontsize": 7}
@@ -37,6 +37,9 @@ def scenario_figures(data: dict, series: dict, out_dir, *, quick: bool = False) 
     with plt.rc_context(_STYLE), warnings.catch_warnings():
         warnings.simplefilter("ignore")
         colors = _colors(list(data["methods"]))
+        measured = any(r["attitude_error"] is not None for m in data["methods"].values() for r in m["runs"])
+        if not measured:  # every run failed, or no reference: the checks say why, an empty plot would not
+            return figs
         figs.append(_save(_convergence(data, colors), out_dir, f"{name}-convergence.png",
                           "Attitude error at the final time against the step (log-log), with slope guides for "
                           "orders 1 and 4; below the shaded line errors are at the study's floor (round-off or "
@@ -55,9 +58,32 @@ def scenario_figures(data: dict, series: dict, out_dir, *, quick: bool = False) 
     return figs
 
 
+def new_figure(*args, **kwargs):
+    """``plt.subplots`` in the report's style."""
+    with plt.rc_context(_STYLE):
+        return plt.subplots(*args, **kwargs)
+
+
+def save_figure(fig, path) -> None:
+    """Write ``fig`` to ``path`` atomically, in the format of its ending (``.png``, ``.svg``, ``.pdf``)."""
+    import os
+    from pathlib import Path
+
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with plt.rc_context(_STYLE):
+            fig.savefig(tmp, format=path.suffix.lstrip(".").lower(), bbox_inches="tight")
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    finally:
+        plt.close(fig)
+
+
 def _save(fig, out_dir, file, caption):
-    fig.savefig(out_dir / file, bbox_inches="tight")
-    plt.close(fig)
+    save_figure(fig, out_dir / file)
     return file, caption
 
 

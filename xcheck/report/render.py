@@ -5,9 +5,11 @@ renamed into place only when complete; ``latest`` then points at it."""
 from __future__ import annotations
 
 import base64
+import errno
 import html
 import os
 import shutil
+import socket
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -23,6 +25,8 @@ REPORT_SCHEMA = "xcheck.report/1"
 
 def verdict_of(data: dict, method: str) -> str:
     """``pass`` | ``fail`` | ``expected`` (an expected failure that happened) for one method of a study."""
+    if any(c["name"] == "reference" and not c["passed"] for c in data["checks"]):
+        return "fail"  # nothing could be measured
     related = [c for c in data["checks"] if c["name"].split(":", 1)[-1] == method]
     if not related:
         return "info"
@@ -44,18 +48,20 @@ def _dt(dt):
 def write_report(studies, out_root, *, stamp: str | None = None, throughput=None, wall_time=None,
                  quick=False, pool=None) -> Path:
     """Write the report of ``studies`` (list of StudyResult) under ``out_root/<stamp>/`` atomically and
-    point ``out_root/latest`` at it; figures are drawn in ``pool`` when given. Returns the report folder."""
+    point ``out_root/latest`` at it; figures are drawn in ``pool`` when given. Returns the report folder.
+
+    The report is written into a hidden ``.incomplete-<stamp>-<host>-<pid>`` folder and renamed into place
+    when complete: on any error or interrupt the workers are stopped first and the folder removed; a
+    folder left by a killed run (its process gone) is removed by the next report into ``out_root``. Two
+    reports finishing in the same second get distinct names (``<stamp>-2``)."""
+    from ..pool import stop_pool
     from .plots import scenario_figures
 
     out_root = Path(out_root)
     out_root.mkdir(parents=True, exist_ok=True)
+    remove_stale(out_root)
     stamp = stamp or datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
-    final = out_root / stamp
-    n = 1
-    while final.exists():
-        n += 1
-        final = out_root / f"{stamp}-{n}"
-    tmp = out_root / f".incomplete-{final.name}-{os.getpid()}"
+    tmp = out_root / f"{_INCOMPLETE}{stamp}-{_owner()}"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir()
     try:
@@ -73,17 +79,72 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
         write_json_atomic(tmp / "results.json", results)
         write_text_atomic(tmp / "report.md", _markdown(results, figures))
         write_text_atomic(tmp / "index.html", _html(results, figures, tmp / "plots"))
-        os.replace(tmp, final)
+        final = _rename_into_place(tmp, out_root, stamp)
     except BaseException:
+        if pool is not None:
+            stop_pool(pool)  # a worker still drawing would recreate the folder after it is removed
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     _point_latest(out_root, final)
     return final
 
 
+_INCOMPLETE = ".incomplete-"
+
+
+def _owner() -> str:
+    """``<host>-<pid>``: who is writing a hidden temporary folder or link."""
+    host = "".join(c if c.isalnum() else "_" for c in socket.gethostname())[:40] or "host"
+    return f"{host}-{os.getpid()}"
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, but not ours to signal
+        return True
+    return True
+
+
+def remove_stale(out_root: Path) -> list[Path]:
+    """Remove what killed runs on this host left in ``out_root``: ``.incomplete-*`` folders and ``.latest-*``
+    links whose writing process is gone. Returns what was removed."""
+    host = _owner().rsplit("-", 1)[0]
+    removed = []
+    for p in out_root.glob(".*-*"):
+        if not (p.name.startswith(_INCOMPLETE) or p.name.startswith(".latest-")):
+            continue
+        owner_host, _, pid = p.name.rpartition("-")
+        if not (pid.isdigit() and owner_host.endswith("-" + host)) or _alive(int(pid)):
+            continue
+        if p.is_symlink() or p.is_file():
+            p.unlink(missing_ok=True)
+        else:
+            shutil.rmtree(p, ignore_errors=True)
+        removed.append(p)
+    return removed
+
+
+def _rename_into_place(tmp: Path, out_root: Path, stamp: str) -> Path:
+    """Rename ``tmp`` to ``out_root/<stamp>`` or, if another report took that name first, ``<stamp>-2``, ..."""
+    for n in range(1, 10_000):
+        final = out_root / (stamp if n == 1 else f"{stamp}-{n}")
+        if final.exists():
+            continue
+        try:
+            os.rename(tmp, final)
+            return final
+        except OSError as exc:  # taken between the check and the rename (a concurrent report)
+            if exc.errno not in (errno.EEXIST, errno.ENOTEMPTY) and not final.exists():
+                raise
+    raise OSError(errno.EEXIST, f"no free report name for {stamp} in {out_root}")
+
+
 def _point_latest(out_root: Path, final: Path):
     link = out_root / "latest"
-    tmp_link = out_root / f".latest-{os.getpid()}"
+    tmp_link = out_root / f".latest-{_owner()}"
     try:
         tmp_link.unlink(missing_ok=True)
         tmp_link.symlink_to(final.name, target_is_directory=True)

@@ -1,0 +1,526 @@
+"""Trust under abuse (issue 8), one block per section of the issue: the compiled-code cache stays out of the
+package; a MuJoCo blow-up is a failed run in MuJoCo's words and references have a bounded effort; scenario
+names cannot escape the report folder; interrupts, kills and concurrent reports leave nothing behind; and
+anything a user can cause gets exit 2 with a message naming the file, key, argument or path, never a
+traceback. The property-based test over generated inputs is in ``test_cli_fuzz.py``."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+import xcheck
+from xcheck import _jit
+from xcheck.cli import main
+from xcheck.engines.mujoco import simulate
+from xcheck.fields import ConstantTorque
+from xcheck.models import BUNDLED_MODELS
+from xcheck.reference import ReferenceFailure, dop853_solution, exact_torque_free
+from xcheck.report import render
+
+GYRO = BUNDLED_MODELS / "gyroscope.xml"
+GYRO_I = [0.005625, 0.0028125, 0.0028125]
+#: The blow-up of the issue: omega = [1e6, 1e3, 2e3] rad/s at dt = 0.25 s.
+HUGE_W = [1e6, 1e3, 2e3]
+PACKAGE = Path(xcheck.__file__).resolve().parent
+
+
+def scenario(tmp_path, body="", *, name="t", initial="quaternion = [1.0, 0.0, 0.0, 0.0]\nangular_velocity = "
+             "[0.1, 0.2, 0.3]\n", duration=1.0, file="s.toml", model=GYRO):
+    path = tmp_path / file
+    path.write_text(f'name = "{name}"\nmodel = "{model}"\nduration = {duration}\n[initial]\n{initial}{body}')
+    return path
+
+
+def run_cli(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out = capsys.readouterr()
+    assert "Traceback" not in out.err
+    return code, out.out, out.err
+
+
+# ------------------------------------------------------------------------------------------------
+# 1. compiled code is cached per user, outside the installed package
+# ------------------------------------------------------------------------------------------------
+def test_numba_cache_is_outside_the_package(tmp_path):
+    """A compile into an empty cache (a new user) writes there and nothing into the package (where pip would
+    leave it behind on uninstall)."""
+    started = time.time() - 1
+    code = ("from xcheck.integrators import integrate; from xcheck import _jit; "
+            "integrate('formulation-2', [1, 2, 3], [1, 0, 0, 0], [0.1, 0.2, 0.3], dt=0.1, duration=0.5); "
+            "print(_jit.cache_root())")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env={**os.environ, "XCHECK_CACHE_DIR": str(tmp_path / "cache")})
+    assert proc.returncode == 0, proc.stderr
+    root = Path(proc.stdout.strip())
+    assert root.parent == tmp_path / "cache" and PACKAGE not in root.parents
+    assert list(root.glob("fields.*.nbi")) and list((root / "integrators").glob("_kernels.run_f2-*.nbi"))
+    new = [p for p in PACKAGE.rglob("*.nb[ic]") if p.stat().st_mtime >= started]
+    assert not new, new
+
+
+def test_cache_folder_is_keyed_by_version_and_sources(monkeypatch, tmp_path):
+    monkeypatch.setenv("XCHECK_CACHE_DIR", str(tmp_path / "c"))
+    _jit.cache_root.cache_clear()
+    try:
+        root = _jit.cache_root()
+        assert root.parent == tmp_path / "c" and root.name.startswith(f"numba-{xcheck.__version__}-")
+        assert len(root.name.rsplit("-", 1)[1]) == 12
+    finally:
+        _jit.cache_root.cache_clear()
+
+
+def test_foreign_functions_keep_numba_locators():
+    def f(x):
+        return x
+
+    assert _jit.XcheckCacheLocator.from_function(f, __file__) is None  # a test file is not xcheck's
+
+
+# ------------------------------------------------------------------------------------------------
+# 2. a MuJoCo blow-up is a failed run, in MuJoCo's words; references have a bounded effort
+# ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("torque", [None, ConstantTorque([0.0, 0.0, 1e-4])])
+def test_mujoco_blow_up_is_a_failed_run(torque):
+    before = mujoco.get_mju_user_warning()
+    traj = simulate(GYRO, integrator="rk4", q0=[1, 0, 0, 0], omega0=HUGE_W, dt=0.25, duration=10.0, torque=torque)
+    assert traj.status == "failed"
+    assert "Nan, Inf or huge value in QVEL" in traj.message and "t = 0.25 s" in traj.message
+    # the trajectory ends at the last good state: no reset to rest, nothing huge or non-finite
+    assert len(traj.t) == 1 and np.all(np.isfinite(traj.omega)) and np.allclose(traj.omega[0], HUGE_W)
+    assert mujoco.get_mju_user_warning() is before  # MuJoCo's global warning handler restored
+
+
+def test_mujoco_normal_run_has_no_warning():
+    traj = simulate(GYRO, integrator="rk4", q0=[1, 0, 0, 0], omega0=[1, 2, 3], dt=0.01, duration=1.0)
+    assert traj.ok and traj.message == "" and len(traj.t) == 101
+
+
+def test_blow_up_fails_the_study(tmp_path, capsys):
+    path = scenario(tmp_path, '[study]\nsteps = [0.25, 0.125]\nmethods = ["mujoco-rk4"]\n', duration=10.0,
+                    initial=f"quaternion = [1.0, 0.0, 0.0, 0.0]\nangular_velocity = {HUGE_W}\n")
+    code, out, _ = run_cli(capsys, "converge", path, "--workers", "1", "--json", tmp_path / "r.json")
+    assert code == 1 and "FAILED runs:mujoco-rk4" in out and "Nan, Inf or huge value" in out
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert [r["status"] for r in doc["methods"]["mujoco-rk4"]["runs"]] == ["failed", "failed"]
+
+
+def test_dop853_refuses_at_once_when_over_budget():
+    t0 = time.perf_counter()
+    with pytest.raises(ReferenceFailure, match=r"would need about 3e\+07 steps .* budget: 100000 steps"):
+        dop853_solution(GYRO_I, [1, 0, 0, 0], HUGE_W, 10.0)
+    assert time.perf_counter() - t0 < 5  # refused from the estimate, not after minutes of stepping
+
+
+def test_dop853_gives_up_after_its_step_budget():
+    """|omega0| T = 6.2 rad passes the estimate (3 steps a radian), but DOP853 needs more than 20 steps."""
+    with pytest.raises(ReferenceFailure, match=r"gave up at t = .* of 10 s after 20 steps .*budget: 20 steps or 60 s"):
+        dop853_solution([1.0, 2.0, 3.0], [1, 0, 0, 0], [0.3, 0.2, 0.5], 10.0, max_steps=20)
+
+
+def test_dop853_within_budget_matches_exact():
+    """Truth: the exact torque-free solution; DOP853 at rtol 1e-13 agrees to 1e-11 rad over 10 s."""
+    from xcheck.rotations import attitude_error
+
+    t = np.linspace(0, 10, 11)
+    q_ex, _ = exact_torque_free(GYRO_I, [1, 0, 0, 0], [0.3, 0.2, 15.71], t)
+    q_d, _ = dop853_solution(GYRO_I, [1, 0, 0, 0], [0.3, 0.2, 15.71], 10.0)(t)
+    assert attitude_error(q_d, q_ex).max() < 1e-11
+
+
+def test_exact_asymmetric_reference_refuses_too_many_panels():
+    with pytest.raises(ReferenceFailure, match="quadrature panels"):
+        exact_torque_free([1.0, 2.0, 3.0], [1, 0, 0, 0], HUGE_W, np.linspace(0, 10, 11))
+
+
+def test_reference_over_budget_fails_the_study_with_the_reason(tmp_path, capsys):
+    path = scenario(tmp_path, '[torque]\nkind = "constant"\ntorque = [0, 0, 1e-4]\n[study]\nreference = "dop853"\n'
+                    'steps = [0.25, 0.125]\nmethods = ["lie-rkmk4"]\n', duration=10.0,
+                    initial=f"quaternion = [1.0, 0.0, 0.0, 0.0]\nangular_velocity = {HUGE_W}\n")
+    code, out, _ = run_cli(capsys, "report", path, "--workers", "1", "--out", tmp_path / "r")
+    assert code == 1 and "FAILED reference: the dop853 reference could not be computed" in out
+    doc = json.loads((tmp_path / "r" / "latest" / "results.json").read_text())["scenarios"][0]
+    assert render.verdict_of(doc, "lie-rkmk4") == "fail"  # red in the tables, not "reported without checks"
+    assert not list((tmp_path / "r" / "latest").rglob("*.png"))  # no empty convergence plot
+
+
+def test_scipy_rk45_run_over_budget_is_failed(monkeypatch):
+    from xcheck import reference
+    from xcheck.integrators import integrate
+
+    monkeypatch.setattr(reference, "SOLVER_MAX_STEPS", 20)
+    traj = integrate("scipy-rk45", GYRO_I, [1, 0, 0, 0], [0.02, 0.02, 15.71], dt=0.01, duration=10.0)
+    assert traj.status == "failed" and "scipy-rk45 gave up" in traj.message and "20 steps" in traj.message
+
+
+# ------------------------------------------------------------------------------------------------
+# 3. names are identifiers: nothing written outside the report folder, no two scenarios with one name
+# ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["../../../ESCAPED", "a/b", "..", ".hidden", "a\\\\b", "", "x" * 101, "a b",
+                                  "..x", "ok..name"])
+def test_scenario_names_must_be_identifiers(tmp_path, capsys, name):
+    path = scenario(tmp_path, name=name)
+    out = tmp_path / "deep" / "er" / "reports"
+    code, _, err = run_cli(capsys, "report", path, "--out", out, "--workers", "1")
+    assert code == 2 and f"{path}: name: expected an identifier" in err
+    assert not (tmp_path / "deep").exists() and not list(tmp_path.rglob("*ESCAPED*"))
+
+
+def test_two_scenarios_with_one_name_are_refused(tmp_path, capsys):
+    a = scenario(tmp_path, name="same", file="a.toml")
+    b = scenario(tmp_path, name="same", file="b.toml")
+    code, _, err = run_cli(capsys, "report", a, b, "--out", tmp_path / "r", "--workers", "1")
+    assert code == 2 and f"two scenarios are named 'same' ({a} and {b})" in err
+    assert not (tmp_path / "r").exists()
+
+
+# ------------------------------------------------------------------------------------------------
+# 4. interrupts, kills and concurrency
+# ------------------------------------------------------------------------------------------------
+def _children(pid):
+    """Process ids whose parent is ``pid`` (Linux /proc)."""
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+def _alive(pid):
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def _start_report(out, *extra):
+    return subprocess.Popen([sys.executable, "-m", "xcheck", "report", "--quick", "--out", str(out), *extra],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+
+
+def _wait_for(predicate, timeout, step=0.005):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(step)
+    return None
+
+
+linux_only = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads processes from Linux /proc")
+
+
+@linux_only
+@pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
+def test_signal_during_writing_leaves_nothing(tmp_path, sig, code, word):
+    """The signal arrives while the report is being written (its hidden folder exists) and the pool's
+    workers are drawing figures: exit promptly, workers gone, no folder, no PNG recreated afterwards."""
+    out = tmp_path / "reports"
+    proc = _start_report(out, "tumbler-intermediate-axis", "gyroscope-nonsingular")
+    assert _wait_for(lambda: list(out.glob(".incomplete-*")), timeout=120), proc.communicate()
+    workers = _children(proc.pid)
+    os.killpg(proc.pid, sig)  # like Ctrl-C on a terminal: the whole process group
+    t0 = time.monotonic()
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == code, err
+    assert time.monotonic() - t0 < 10
+    assert f"xcheck: {word}; no report was written" in err and "Traceback" not in err
+    time.sleep(1.0)  # a worker that survived would recreate plots/ now
+    assert not any(_alive(w) for w in workers)
+    assert list(out.iterdir()) == []
+
+
+@linux_only
+def test_sigint_while_computing_exits_promptly(tmp_path):
+    """Ctrl-C while the workers compute: the parent stops them instead of waiting for their runs."""
+    out = tmp_path / "reports"
+    proc = _start_report(out)
+    workers = _wait_for(lambda: _children(proc.pid), timeout=60, step=0.05)
+    assert workers and not list(out.glob(".incomplete-*"))
+    time.sleep(1.0)
+    os.killpg(proc.pid, signal.SIGINT)
+    t0 = time.monotonic()
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 130 and "interrupted; no report was written" in err, err
+    assert time.monotonic() - t0 < 10
+    assert _wait_for(lambda: not any(_alive(w) for w in workers), timeout=5)
+    assert list(out.iterdir()) == []
+
+
+@linux_only
+def test_killed_parent_leaves_no_orphan_workers(tmp_path):
+    out = tmp_path / "reports"
+    proc = _start_report(out)
+    workers = _wait_for(lambda: [w for w in _children(proc.pid) if "resource_tracker" not in
+                                 Path(f"/proc/{w}/cmdline").read_bytes().decode(errors="replace")] or None,
+                        timeout=60, step=0.05)
+    assert workers, "the report started its worker processes"
+    tracker = [w for w in _children(proc.pid) if w not in workers]
+    os.kill(proc.pid, signal.SIGKILL)  # the parent alone, as an OOM killer would
+    proc.communicate(timeout=10)
+    assert _wait_for(lambda: not any(_alive(w) for w in workers + tracker), timeout=15), "orphans outlived the parent"
+
+
+def test_leftovers_of_killed_runs_are_removed(tmp_path, capsys):
+    out = tmp_path / "reports"
+    owner = render._owner()
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
+                          text=True).stdout.strip()
+    stale = out / f".incomplete-20260101T000000Z-{owner.rsplit('-', 1)[0]}-{dead}"
+    (stale / "plots").mkdir(parents=True)
+    (stale / "plots" / "x.png").write_bytes(b"half")
+    live = out / f".incomplete-20260101T000000Z-{owner}"  # this process: still writing, kept
+    live.mkdir()
+    stale_link = out / f".latest-{owner.rsplit('-', 1)[0]}-{dead}"
+    stale_link.symlink_to("nowhere")
+    code, _, _ = run_cli(capsys, "report", "tumbler-intermediate-axis", "--quick", "--out", out, "--workers", "1")
+    assert code == 0
+    assert not stale.exists() and not stale_link.is_symlink() and live.is_dir()
+
+
+def test_reports_finishing_in_the_same_second_both_land(tmp_path, monkeypatch):
+    from xcheck.scenario import resolve_scenario
+    from xcheck.study import run_study
+
+    st = run_study(resolve_scenario("tumbler-intermediate-axis"), methods=["lie-rkmk4"], steps=[0.125, 0.0625],
+                   workers=1)
+    out = tmp_path / "reports"
+    first = render.write_report([st], out, stamp="20260101T000000Z")
+    # the second finds the name free, then a concurrent report takes it just before the rename
+    real_rename = os.rename
+
+    def racing_rename(src, dst):
+        if Path(dst).name == "20260101T000000Z-2" and not Path(dst).exists():
+            Path(dst).mkdir()
+            (Path(dst) / "index.html").write_text("the other report")
+        return real_rename(src, dst)
+
+    monkeypatch.setattr(render.os, "rename", racing_rename)
+    second = render.write_report([st], out, stamp="20260101T000000Z")
+    assert first.name == "20260101T000000Z" and second.name == "20260101T000000Z-3"
+    assert (second / "results.json").is_file() and (out / "20260101T000000Z-2" / "index.html").read_text() == \
+        "the other report"
+    assert (out / "latest").resolve() == second.resolve()
+    assert not list(out.glob(".incomplete-*"))
+
+
+# ------------------------------------------------------------------------------------------------
+# 5. no traceback for anything a user can cause: exit 2 naming the file, key, argument or path
+# ------------------------------------------------------------------------------------------------
+def _no_work(monkeypatch):
+    """Fail the test if any study or run starts (paths must be checked before any work)."""
+    import xcheck.runners
+    import xcheck.study
+
+    def forbidden(*a, **k):
+        raise AssertionError("work started before the arguments were checked")
+
+    monkeypatch.setattr(xcheck.study, "run_study", forbidden)
+    monkeypatch.setattr(xcheck.study, "run_studies", forbidden)
+    monkeypatch.setattr(xcheck.study, "run_context", forbidden)
+
+
+@pytest.fixture
+def afile(tmp_path):
+    f = tmp_path / "a-file"
+    f.write_text("x")
+    return f
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["converge", "gyroscope-nonsingular", "--json", "{afile}/r.json"], "--json: {afile} exists and is not a folder"),
+    (["converge", "gyroscope-nonsingular", "--json", "{tmp}"], "--json: {tmp} must end in .json"),
+    (["converge", "gyroscope-nonsingular", "--json", "{tmp}/d.json/"], "--json: expected a file name"),
+    (["converge", "gyroscope-nonsingular", "--json", "/proc/xcheck/r.json"], "--json: cannot create the folder"),
+    (["converge", "gyroscope-nonsingular", "--out", "{afile}"], "--out: {afile} is a file; expected a folder"),
+    (["converge", "gyroscope-nonsingular", "--out", "{afile}/sub"], "--out: {afile}/sub cannot be created"),
+    (["run", "gyroscope-nonsingular", "--method", "lie-rkmk4", "--dt", "0.1", "--csv", "{afile}/t.csv"],
+     "--csv: {afile} exists and is not a folder"),
+    (["run", "gyroscope-nonsingular", "--method", "lie-rkmk4", "--dt", "0.1", "--plot", "{tmp}/t.txt"],
+     "--plot: {tmp}/t.txt must end in .png, .svg, .pdf"),
+    (["run", "gyroscope-nonsingular", "--method", "lie-rkmk4", "--dt", "0.1", "--plot", "{tmp}/dir.png"],
+     "--plot: {tmp}/dir.png is a folder; expected a file"),
+    (["report", "--out", "{afile}"], "--out: {afile} is a file; expected a folder"),
+    (["report", "--out", "/proc/xcheck-reports"], "--out: cannot create the folder /proc/xcheck-reports"),
+    (["bench", "--json", "{afile}/b.json"], "--json: {afile} exists and is not a folder"),
+])
+def test_output_paths_are_checked_before_any_work(tmp_path, capsys, monkeypatch, afile, argv, match):
+    (tmp_path / "dir.png").mkdir()
+    _no_work(monkeypatch)
+    fill = {"afile": afile, "tmp": tmp_path}
+    code, _, err = run_cli(capsys, *[a.format(**fill) for a in argv])
+    assert code == 2 and match.format(**fill) in err, err
+
+
+def test_missing_output_folders_are_created(tmp_path, capsys):
+    csv, svg, pdf = tmp_path / "a" / "b" / "t.csv", tmp_path / "c" / "t.svg", tmp_path / "t.PDF"
+    code, _, _ = run_cli(capsys, "run", "tumbler-intermediate-axis", "--method", "lie-rkmk4", "--dt", "0.125",
+                         "--csv", csv, "--plot", svg)
+    assert code == 0 and csv.is_file()
+    assert svg.read_bytes().startswith(b"<?xml") and b"<svg" in svg.read_bytes()[:500]  # SVG, not PNG bytes
+    code, _, _ = run_cli(capsys, "run", "tumbler-intermediate-axis", "--method", "lie-rkmk4", "--dt", "0.125",
+                         "--plot", pdf)
+    assert code == 0 and pdf.read_bytes().startswith(b"%PDF")
+    assert not list(tmp_path.rglob(".*.tmp"))
+
+
+@pytest.mark.parametrize("body, match", [
+    ("[study]\nsteps = [1.5, 0.5]\n", r"\[study\] steps: the step 1.5 s is longer than the duration 1 s"),
+    ("[study]\nsteps = [0.5, 0.25, 0.5]\n", r"\[study\] steps: the step 0.5 s is given twice"),
+    ("[study]\nquick_steps = [2.0]\n", r"\[study\] quick_steps: the step 2 s is longer than the duration"),
+    ("[study]\nsteps = [1e-8]\n", r"\[study\] steps: the step 1e-08 s over 1 s is 1e\+08 steps; .* GiB, more "
+                                  r"than half of the .* GiB available here"),
+    ("[study]\nmethods = []\n", r"\[study\] methods: expected a non-empty list"),
+    ("[checks]\nexpected_to_fail = ['nope']\n", r"\[checks\] expected_to_fail: unknown method 'nope'"),
+    ("[study]\nmethods = ['lie-rkmk4']\n[checks]\nexpected_to_fail = ['euler-rk4']\n",
+     r"\[checks\] expected_to_fail: 'euler-rk4' is not among the \[study\] methods"),
+    ("[torque]\nkind = 'constant'\ntorque = [0, 0, 1e-4]\n[study]\nreference = 'fine'\nreference_dt = 1e-10\n",
+     r"\[study\] reference_dt: the step 1e-10 s over 1 s is 1e\+10 steps"),
+])
+def test_study_keys_refused_before_allocating(tmp_path, capsys, body, match):
+    import re
+
+    path = scenario(tmp_path, body)
+    code, _, err = run_cli(capsys, "converge", path, "--workers", "1")
+    assert code == 2 and re.search(match, err) and str(path) in err, err
+
+
+def test_default_steps_that_do_not_fit_name_the_duration(tmp_path, capsys):
+    path = scenario(tmp_path, duration=1e9)
+    code, _, err = run_cli(capsys, "converge", path, "--workers", "1")
+    assert code == 2 and "[study] steps: the default steps do not fit" in err and "give [study] steps" in err
+
+
+def test_short_duration_drops_default_steps_longer_than_it(tmp_path):
+    from xcheck.scenario import load_scenario
+
+    sc = load_scenario(scenario(tmp_path, duration=0.1))
+    assert max(sc.steps) == 2.0**-4 and min(sc.steps) == 2.0**-12 and max(sc.quick_steps) == 2.0**-6
+
+
+@pytest.mark.parametrize("initial, match", [
+    ("quaternion = [1.0, 0.0, 0.0, 0.0]\nangular_velocity = [0.1, 0.2, 0.3]\neuler_angles_deg = [0, 10, 0]\n",
+     r"\[initial\] quaternion: give either quaternion \+ angular_velocity, or euler_angles_deg \+ euler_rates, not "
+     r"both"),
+    ("quaternion = [0.0, 0.0, 0.0, 0.0]\nangular_velocity = [0.1, 0.2, 0.3]\n", r"quaternion: a zero quaternion"),
+])
+def test_initial_state_errors(tmp_path, capsys, initial, match):
+    import re
+
+    path = scenario(tmp_path, initial=initial)
+    code, _, err = run_cli(capsys, "converge", path, "--workers", "1")
+    assert code == 2 and re.search(match, err), err
+
+
+def test_huge_quaternion_normalises_without_overflow(tmp_path):
+    """Truth: [1e300, 1e300, 0, 0] is the direction [1, 1, 0, 0] / sqrt(2) (and so is [5e-324, 5e-324, 0, 0])."""
+    from xcheck.scenario import load_scenario
+
+    for big in ("1e300", "5e-324"):
+        sc = load_scenario(scenario(tmp_path, initial=f"quaternion = [{big}, {big}, 0, 0]\n"
+                                                       "angular_velocity = [0.1, 0.2, 0.3]\n"))
+        np.testing.assert_allclose(sc.q0, [2**-0.5, 2**-0.5, 0, 0], rtol=1e-15)
+
+
+def test_scenario_not_utf8(tmp_path, capsys):
+    path = tmp_path / "latin.toml"
+    path.write_bytes('name = "café"\n'.encode("latin-1"))
+    code, _, err = run_cli(capsys, "converge", path)
+    assert code == 2 and f"{path}: not UTF-8 text (byte 0xe9 at offset 11)" in err
+
+
+def test_scenario_with_utf8_bom_reads(tmp_path):
+    from xcheck.scenario import load_scenario
+
+    path = scenario(tmp_path)
+    path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    assert load_scenario(path).name == "t"
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["run", "gyroscope-nonsingular", "--method", "lie-rkmk4", "--dt", "1e-12"],
+     "--dt: the step 1e-12 s over 10 s is 1e+13 steps"),
+    (["run", "tumbler-intermediate-axis", "--method", "lie-rkmk4", "--dt", "50"],
+     "--dt: the step 50 s is longer than the duration"),
+    (["converge", "gyroscope-nonsingular", "--steps", "0.5,0.25,0.5"], "--steps: 0.5 given more than once"),
+    (["converge", "gyroscope-nonsingular", "--steps", "20"], "--steps: the step 20 s is longer than the duration 10 s"),
+    (["converge", "gyroscope-nonsingular", "--steps", ""], "--steps: expected a comma-separated list, got ''"),
+    (["converge", "gyroscope-nonsingular", "--methods", ""], "--methods: expected a comma-separated list, got ''"),
+    (["converge", "gyroscope-nonsingular", "--methods", "lie-rkmk4,lie-rkmk4"], "--methods: lie-rkmk4 given more"),
+    (["bench", "--repeat", "0"], "--repeat: expected a positive number of runs, got 0"),
+    (["bench", "--repeat", "-1"], "--repeat: expected a positive number of runs, got -1"),
+])
+def test_arguments_refused(capsys, monkeypatch, argv, match):
+    _no_work(monkeypatch)
+    code, _, err = run_cli(capsys, *argv)
+    assert code == 2 and match in err, err
+
+
+BAD_MODELS = {
+    "free joint stiffness": ('<joint type="free" stiffness="3"/>', "", "the free joint has stiffness 3"),
+    "spatial tendon spring": ('<freejoint/>', '<tendon><spatial stiffness="10"><site site="anchor"/><site site="s"/>'
+                              '</spatial></tendon>', "1 tendon(s): their springs, damping and limits"),
+}
+
+
+@pytest.mark.parametrize("joint, extra, match", BAD_MODELS.values(), ids=list(BAD_MODELS))
+def test_passive_forces_are_refused(tmp_path, capsys, joint, extra, match):
+    model = tmp_path / "m.xml"
+    model.write_text(f'<mujoco><option><flag contact="disable"/></option><worldbody><site name="anchor" pos="0 0 1"/>'
+                     f'<body name="b">{joint}<geom type="box" size=".1 .2 .3" mass="1"/><site name="s" pos=".1 0 0"/>'
+                     f'</body></worldbody>{extra}</mujoco>')
+    path = scenario(tmp_path, model=model)
+    code, _, err = run_cli(capsys, "converge", path)
+    assert code == 2 and f"{path}: model: {model}: {match}" in err, err
+
+
+def test_a_bug_is_one_line_asking_to_report_it(capsys, monkeypatch):
+    import xcheck.cli as cli
+
+    def broken(args):
+        raise RuntimeError("something impossible")
+
+    monkeypatch.setattr(cli, "_cmd_list", broken)
+    code = main(["list"])
+    err = capsys.readouterr().err
+    assert code == 3 and "Traceback" not in err
+    assert "internal error: RuntimeError: something impossible" in err and "please report it" in err
+    assert "XCHECK_DEBUG=1" in err
+    monkeypatch.setenv("XCHECK_DEBUG", "1")
+    with pytest.raises(RuntimeError, match="something impossible"):
+        main(["list"])
+
+
+@pytest.mark.parametrize("dt, duration, match", [
+    (0.25, 1e308, "is inf steps, more than the limit"),  # found by the fuzz test: int(inf) overflowed
+    (5e-324, 1.0, "is inf steps, more than the limit"),
+    (1e-300, 1.0, r"is 1e\+300 steps, more than the limit"),
+    (1.0, 1e-300, "the step 1 s is longer than the duration 1e-300 s"),
+    (0.0, 1.0, "expected a positive finite step in seconds, got 0.0"),
+    (float("nan"), 1.0, "expected a positive finite step in seconds, got nan"),
+])
+def test_check_step_refuses_with_a_reason(dt, duration, match):
+    from xcheck.trajectory import check_step
+
+    with pytest.raises(ValueError, match=match):
+        check_step(dt, duration)
+
+
+def test_check_step_counts_steps():
+    """Truth: step_plan's rule (an integer ratio is that many steps; otherwise one shortened last step)."""
+    from xcheck.trajectory import check_step
+
+    assert check_step(0.125, 10.0) == 80 and check_step(0.3, 1.0) == 4 and check_step(1.0, 1.0) == 1

@@ -1,0 +1,65 @@
+"""Worker processes that never outlive the command that started them.
+
+* Workers are spawned (no state inherited from the parent) and ignore SIGINT: on Ctrl-C the parent stops
+  them itself (:func:`stop_pool`), at once, instead of waiting for the runs under way to finish.
+* A worker dies with its parent, even when the parent is killed with SIGKILL: on Linux the kernel sends it
+  SIGKILL (``PR_SET_PDEATHSIG``); elsewhere a watchdog thread notices the new parent process id. With the
+  workers gone, multiprocessing's resource tracker sees its pipe close and exits too.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import sys
+import threading
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+__all__ = ["make_pool", "stop_pool"]
+
+_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+
+
+def _die_with_parent(parent_pid: int) -> None:
+    """Worker initializer (see the module docstring)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent_pid:  # the parent died before the line above took effect
+        os._exit(1)
+
+    def watch():
+        while os.getppid() == parent_pid:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="xcheck-parent-watch", daemon=True).start()
+
+
+def make_pool(workers: int | None = None) -> ProcessPoolExecutor:
+    """A pool of ``workers`` spawned processes (default: the CPU count) that die with this process."""
+    return ProcessPoolExecutor(max_workers=workers or None, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=_die_with_parent, initargs=(os.getpid(),))
+
+
+def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 2.0) -> None:
+    """Stop ``pool`` now: cancel what has not started, terminate the workers (SIGTERM, then SIGKILL after
+    ``grace`` seconds) and wait for them, so that nothing they write can land after this returns."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())  # the executor's own record of its workers
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+    deadline = time.monotonic() + grace
+    for p in procs:
+        p.join(max(0.0, deadline - time.monotonic()))
+        if p.is_alive():
+            p.kill()
+            p.join(1.0)
