@@ -105,6 +105,28 @@ def test_verdicts_are_as_expected(quick_report):
     assert agreement["passed"] and agreement["value"] < 1e-9
 
 
+def test_quick_report_numbers_match_the_golden_copy(quick_report):
+    """Truth: the quick report as of issue 8 (tests/data/quick-report.json); refactors must not move a number
+    beyond round-off (tolerances in tests/golden.py)."""
+    from golden import GOLDEN, canonical, compare
+
+    _, out = quick_report
+    got = canonical(json.loads((out / "latest" / "results.json").read_text()))
+    differences = compare(got, json.loads(GOLDEN.read_text()))
+    assert not differences, "\n".join(differences[:20])
+
+
+def test_golden_comparison_sees_a_changed_number():
+    from golden import GOLDEN, compare
+
+    want = json.loads(GOLDEN.read_text())
+    changed = json.loads(GOLDEN.read_text())
+    run = changed["scenarios"][0]["methods"]["mujoco-euler"]["runs"][0]  # an error of about 1e-3 rad
+    run["attitude_error"] *= 1 + 1e-6
+    changed["scenarios"][1]["checks"][0]["passed"] = not changed["scenarios"][1]["checks"][0]["passed"]
+    assert len(compare(changed, want)) == 2 and compare(want, want) == []
+
+
 class _Collector(HTMLParser):
     def __init__(self):
         super().__init__()
