@@ -1,10 +1,11 @@
 """The truth every trajectory is measured against.
 
-* :func:`exact_torque_free` — the exact torque-free motion of any rigid body: closed form for
-  axisymmetric and spherical bodies (MISSION.md, "Physics facts"), Jacobi elliptic functions for
-  asymmetric ones with the rotation about the fixed angular momentum by Gauss-Legendre quadrature.
+* :func:`exact_torque_free` — the exact torque-free motion of any rigid body: the closed form
+  ``R(t) = exp(t [h]x / I_t) R0 exp(-t lambda [a]x)`` for axisymmetric and spherical bodies, Jacobi elliptic
+  functions for asymmetric ones with the rotation about the fixed angular momentum by Gauss-Legendre quadrature.
 * :func:`dop853` — scipy's DOP853 at rtol 1e-13, atol 1e-15 (torqued cases).
-* :func:`fine` — the thesis's own reference: the same integrator at dt = 1e-4 s (seed 004 §3.3).
+* the thesis's own "fine" reference (a method at dt = 1e-4 s, seed 004 §3.3) is a scenario option, run by the
+  study (:mod:`xcheck.study`) through the same runners as every method.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from . import rotations as rot
 from .body import principal_axes, validate_inertia
 from .trajectory import continuous_quaternions
 
-__all__ = ["exact_torque_free", "dop853", "dop853_solution", "fine", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL",
+__all__ = ["exact_torque_free", "dop853", "dop853_solution", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL",
            "ReferenceFailure", "solve_bounded"]
 
 #: Principal moments closer than this (relative to the largest) are treated as equal (axisymmetry).
@@ -270,14 +271,6 @@ def dop853(inertia, q0, omega0, t, *, torque=None, rtol: float = 1e-13, atol: fl
         raise ValueError("t: expected ascending times from 0")
     q, w = dop853_solution(inertia, q0, omega0, t[-1], torque=torque, rtol=rtol, atol=atol)(t)
     return continuous_quaternions(q), w
-
-
-def fine(method, inertia, q0, omega0, *, duration: float, torque=None, dt: float = 1e-4, sequence="323"):
-    """The thesis's reference (seed 004 §3.3): ``method`` itself at ``dt = 1e-4`` s. Returns the
-    :class:`~xcheck.trajectory.Trajectory` (compare at its final time, or at times on its grid)."""
-    from .integrators import integrate
-
-    return integrate(method, inertia, q0, omega0, dt=dt, duration=duration, torque=torque, sequence=sequence)
 
 
 def elliptic_period(inertia, omega0) -> float:
