@@ -289,7 +289,7 @@ def test_interrupt_leaves_no_half_report(tmp_path, monkeypatch, capsys):
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(render, "_html", interrupted)
+    monkeypatch.setattr(render, "to_html", interrupted)
     assert main(["report", "tumbler-intermediate-axis", "--quick", "--out", str(out), "--workers", "1"]) == 130
     assert "no report was written" in capsys.readouterr().err
     assert sorted(p.name for p in out.iterdir()) == before

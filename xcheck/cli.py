@@ -109,19 +109,16 @@ def _cmd_list(args) -> int:
 
 
 def _print_study(st) -> None:
-    data = st.data
-    print(f"\n{data['scenario']}: {'PASSED' if data['passed'] else 'FAILED'} (reference: {data['reference']})")
+    print(f"\n{st.name}: {'PASSED' if st.passed else 'FAILED'} (reference: {st.scenario.reference})")
     print(f"  {'method':22s} {'expected':>8s} {'observed':>8s} {'finest error':>13s}  status")
-    for name, e in data["methods"].items():
-        ok = [r for r in e["runs"] if r["status"] == "ok"]
-        err = min(ok, key=lambda r: r["dt"])["attitude_error"] if ok else None
-        obs = f"{e['observed_order']:.2f}" if e["observed_order"] is not None else "—"
-        exp = e["expected_order"] if e["expected_order"] is not None else "adaptive"
-        err_text = "—" if err is None else format(err, ".2e")
-        print(f"  {name:22s} {exp!s:>8s} {obs:>8s} {err_text:>13s}  {e['status']}")
-    failed = [c for c in data["checks"] if not c["passed"]]
-    for c in failed:
-        print(f"  FAILED {c['name']}: {c['note']}")
+    for name, m in st.methods.items():
+        obs = f"{m.observed_order:.2f}" if m.observed_order is not None else "—"
+        exp = m.expected_order if m.expected_order is not None else "adaptive"
+        err_text = "—" if m.finest is None else format(m.finest.attitude_error, ".2e")
+        print(f"  {name:22s} {exp!s:>8s} {obs:>8s} {err_text:>13s}  {m.status}")
+    for c in st.checks:
+        if not c.passed:
+            print(f"  FAILED {c.name}: {c.note}")
 
 
 def _steps_arg(text, scenario):

@@ -28,11 +28,17 @@ class RunContext:
 
 @dataclass(frozen=True)
 class Runner:
+    """One method of the cross-check. ``engine`` is ``"xcheck"`` for ours, else the simulator's name;
+    ``agreement``: the study checks this method against our best fourth-order method at the finest step (an
+    engine's RK4); ``line_style``: how plots draw it (ours solid, engines dashed)."""
+
     name: str
     engine: str  # "xcheck" | "mujoco"
     expected_order: int | None
     summary: str
     run: Callable[[RunContext, float], Trajectory]
+    agreement: bool = False
+    line_style: str = "-"
 
 
 def _ours(name):
@@ -54,7 +60,7 @@ def _mujoco(integrator):
 RUNNERS: dict[str, Runner] = {name: Runner(name, "xcheck", m.expected_order, m.summary, _ours(name))
                               for name, m in METHODS.items()}
 RUNNERS.update({
-    f"mujoco-{i}": Runner(f"mujoco-{i}", "mujoco", order, summary, _mujoco(i))
+    f"mujoco-{i}": Runner(f"mujoco-{i}", "mujoco", order, summary, _mujoco(i), agreement=(i == "rk4"), line_style="--")
     for i, order, summary in [
         ("rk4", 4, "MuJoCo's RK4 (torque in the control callback at every stage)"),
         ("euler", 1, "MuJoCo's semi-implicit Euler"),

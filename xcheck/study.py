@@ -15,8 +15,9 @@ from . import rotations as rot
 from .metrics import ORDER_FLOOR, errors_against, invariant_drift, observed_order
 from .pool import make_pool, stop_pool
 from .reference import ReferenceFailure, dop853_solution, exact_torque_free
+from .results import Check, MethodResult, Run
 from .runners import RUNNERS, RunContext
-from .scenario import Scenario, build_torque
+from .scenario import Scenario, build_torque, check_steps
 from .trajectory import step_plan
 from .versions import versions
 
@@ -29,17 +30,38 @@ PLOT_SAMPLE_DT = 1 / 256
 
 @dataclass
 class StudyResult:
-    """``data``: the JSON results (schema ``xcheck.convergence/1``); ``series``: per method, the sampled
-    finest good run (``t``, ``q``, ``omega``, ``attitude_error``, ``energy``, ``momentum``, ``euler``) and
-    the reference on the same times, for plots and CSV."""
+    """A study's findings, typed (:mod:`xcheck.results`): the scenario, its steps (coarse to fine), every
+    method's result, the checks; ``series``: per method, the sampled finest good run (``t``, ``q``, ``omega``,
+    ``attitude_error``, ``energy``, ``momentum``, ``euler``) and the reference on the same times, for plots and
+    CSV. :attr:`data` is the JSON (schema ``xcheck.convergence/1``)."""
 
-    data: dict
+    scenario: Scenario
+    steps: list
+    methods: dict  # name -> MethodResult
+    checks: list  # of Check
+    order_floor: float
+    quick: bool = False
     series: dict = field(default_factory=dict)
-    scenario: Scenario | None = None
+    versions: dict = field(default_factory=versions)
+
+    @property
+    def name(self) -> str:
+        return self.scenario.name
 
     @property
     def passed(self) -> bool:
-        return bool(self.data["passed"])
+        return all(c.passed for c in self.checks)
+
+    @property
+    def data(self) -> dict:
+        sc = self.scenario
+        return {"schema": SCHEMA, "scenario": sc.name, "description": sc.description, "model": str(sc.model),
+                "duration": sc.duration, "reference": sc.reference, "torque": sc.torque,
+                "initial": {"quaternion": sc.q0.tolist(), "angular_velocity": sc.omega0.tolist(),
+                            "euler_sequence": sc.sequence},
+                "quick": self.quick, "steps": list(self.steps), "order_floor": self.order_floor,
+                "versions": self.versions, "methods": {n: m.to_json() for n, m in self.methods.items()},
+                "checks": [c.to_json() for c in self.checks], "passed": self.passed}
 
 
 def default_methods(scenario: Scenario) -> list[str]:
@@ -60,9 +82,10 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
         if m not in RUNNERS:
             raise ValueError(f"methods: unknown {m!r}; expected one of {', '.join(RUNNERS)}")
     steps = sorted((float(s) for s in (steps or (scenario.quick_steps if quick else scenario.steps))), reverse=True)
-    for s in steps:
-        if not (math.isfinite(s) and s > 0):
-            raise ValueError(f"steps: expected positive finite steps in seconds, got {s!r}")
+    try:
+        check_steps(steps, scenario.duration)
+    except ValueError as exc:
+        raise ValueError(f"steps: {exc}") from None
     tasks = [(scenario, m, tuple(steps)) for m in methods]
     results = _map(_run_method, tasks, workers=workers, progress=progress, pool=pool,
                    labels=[f"{scenario.name}: {m}" for m in methods])
@@ -200,7 +223,7 @@ def _run_method(scenario: Scenario, method: str, steps: tuple) -> dict:
     try:
         ref = scenario_reference(scenario)
     except ReferenceFailure as exc:  # nothing can be measured: the study fails with the reason
-        return {"method": method, "runs": [_failed(dt, "failed", f"no reference: {exc}", 0.0) for dt in steps],
+        return {"method": method, "runs": [Run.failed(dt, "failed", f"no reference: {exc}", 0.0) for dt in steps],
                 "series": None, "reference_error": str(exc)}
     runner = RUNNERS[method]
     torque_free = ctx.torque is None
@@ -210,35 +233,27 @@ def _run_method(scenario: Scenario, method: str, steps: tuple) -> dict:
         try:
             traj = runner.run(ctx, dt)
         except ValueError as exc:  # e.g. a step the run cannot take
-            runs.append(_failed(dt, "failed", f"{method}: {exc}", time.perf_counter() - t0))
+            runs.append(Run.failed(dt, "failed", f"{method}: {exc}", time.perf_counter() - t0))
             continue
         wall = time.perf_counter() - t0
         n, _ = step_plan(dt, ctx.duration)
         if not traj.ok:
-            runs.append(_failed(dt, traj.status, traj.message, wall))
+            runs.append(Run.failed(dt, traj.status, traj.message, wall))
             continue
         q_ref, w_ref, mask = ref.at(traj.t)
         sub = _subset(traj, mask)
         err = errors_against(sub, q_ref[mask], w_ref[mask])
         drift = invariant_drift(ctx.inertia, traj)
-        record = {"dt": dt, "status": "ok", **err,
-                  "energy_drift": drift["energy_drift"] if torque_free else None,
-                  "momentum_drift": drift["momentum_drift"] if torque_free else None,
-                  "norm_drift": drift["norm_drift"],
-                  "wall_time": wall, "steps_per_second": n / wall if wall > 0 else None}
-        if not all(v is None or math.isfinite(v) for v in record.values() if isinstance(v, float)):
-            runs.append(_failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall))
+        run = Run(dt=dt, **err, energy_drift=drift["energy_drift"] if torque_free else None,
+                  momentum_drift=drift["momentum_drift"] if torque_free else None, norm_drift=drift["norm_drift"],
+                  wall_time=wall, steps_per_second=n / wall if wall > 0 else None)
+        if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
+            runs.append(Run.failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall))
             continue
-        runs.append(record)
+        runs.append(run)
         finest = (dt, traj)
     series = _sample(finest, ref, ctx) if finest is not None else None
     return {"method": method, "runs": runs, "series": series}
-
-
-def _failed(dt, status, message, wall):
-    return {"dt": dt, "status": status, "message": message, "attitude_error": None, "max_attitude_error": None,
-            "omega_error": None, "max_omega_error": None, "energy_drift": None, "momentum_drift": None,
-            "norm_drift": None, "wall_time": wall, "steps_per_second": None}
 
 
 def _subset(traj, mask):
@@ -276,133 +291,116 @@ def _sample(finest, ref, ctx):
 def study_floor(results) -> float:
     """The error below which a study does not measure orders: the larger of :data:`ORDER_FLOOR` and 10x
     the smallest error any method reached (which bounds the reference's own error from above)."""
-    errs = [r["attitude_error"] for res in results for r in res["runs"] if r["attitude_error"]]
+    errs = [r.attitude_error for res in results for r in res["runs"] if r.attitude_error]
     return max(ORDER_FLOOR, 10 * min(errs)) if errs else ORDER_FLOOR
 
 
 def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> StudyResult:
-    """Orders, checks and verdict from the workers' results. ``quick``: the final-error and invariant
+    """Orders, checks and verdicts from the workers' results. ``quick``: the final-error and invariant
     checks, which are about the finest steps of the full study, are not applied."""
-    checks_cfg = scenario.checks
-    data_methods = {}
-    series = {}
     floor = study_floor(results)
+    methods, series = {}, {}
     for res in results:
         name = res["method"]
         runner = RUNNERS[name]
-        runs = res["runs"]
-        dts = [r["dt"] for r in runs]
-        errs = [r["attitude_error"] for r in runs]
-        fit = observed_order(dts, errs, floor=floor)
-        ok_runs = [r for r in runs if r["status"] == "ok"]
-        status = "ok" if len(ok_runs) == len(runs) else (
-            "singular" if any(r["status"] == "singular" for r in runs) else "failed")
-        data_methods[name] = {"engine": runner.engine, "expected_order": runner.expected_order,
-                              "observed_order": fit.order, "order_note": fit.note,
-                              "local_orders": fit.local_orders, "status": status, "runs": runs}
+        fit = observed_order([r.dt for r in res["runs"]], [r.attitude_error for r in res["runs"]], floor=floor)
+        methods[name] = MethodResult(name=name, engine=runner.engine, expected_order=runner.expected_order,
+                                     runs=res["runs"], observed_order=fit.order, order_note=fit.note,
+                                     local_orders=fit.local_orders)
         if res["series"] is not None:
             series[name] = res["series"]
     reference_error = next((res["reference_error"] for res in results if res.get("reference_error")), None)
     if reference_error:
-        checks = [{"name": "reference", "passed": False, "value": None, "limit": None,
-                   "note": f"the {scenario.reference} reference could not be computed: {reference_error}"}]
+        checks = [Check("reference", False, note=f"the {scenario.reference} reference could not be computed: "
+                                                 f"{reference_error}")]
     else:
-        checks = _checks(scenario, data_methods, checks_cfg, quick)
-    data = {"schema": SCHEMA, "scenario": scenario.name, "description": scenario.description,
-            "model": str(scenario.model), "duration": scenario.duration, "reference": scenario.reference,
-            "torque": scenario.torque, "initial": {"quaternion": scenario.q0.tolist(),
-                                                   "angular_velocity": scenario.omega0.tolist(),
-                                                   "euler_sequence": scenario.sequence},
-            "quick": quick, "steps": list(steps), "order_floor": floor, "versions": versions(), "methods": data_methods,
-            "checks": checks,
-            "passed": all(c["passed"] for c in checks)}
-    return StudyResult(data=data, series=series, scenario=scenario)
+        checks = _checks(scenario, methods, scenario.checks, quick)
+    for m in methods.values():
+        m.verdict = _verdict(m.name, checks)
+    return StudyResult(scenario=scenario, steps=list(steps), methods=methods, checks=checks, order_floor=floor,
+                       quick=quick, series=series)
 
 
-def _finest_ok(entry):
-    ok = [r for r in entry["runs"] if r["status"] == "ok"]
-    return min(ok, key=lambda r: r["dt"]) if ok else None
+def _verdict(method: str, checks) -> str:
+    """``pass`` | ``fail`` | ``expected`` | ``info`` (see :mod:`xcheck.results`)."""
+    if any(c.kind == "reference" and not c.passed for c in checks):
+        return "fail"  # nothing could be measured
+    related = [c for c in checks if c.method == method]
+    if not related:
+        return "info"
+    if any(c.kind == "expected-failure" for c in related):
+        return "expected" if all(c.passed for c in related) else "fail"
+    return "pass" if all(c.passed for c in related) else "fail"
 
 
-def _method_checks(name, entry, cfg, torque_free, quick=False):
-    """The regular checks of one method: (name, passed, value, limit, note).
+def _method_checks(m: MethodResult, cfg, torque_free, quick=False) -> list[Check]:
+    """The regular checks of one method.
 
     A run that stops (singular, non-finite) fails the method only at its finest step: at coarse steps
     a method may legitimately be unstable, and the report shows those runs with their messages."""
     out = []
-    expected = entry["expected_order"]
-    runs = sorted(entry["runs"], key=lambda r: r["dt"])
-    if runs and runs[0]["status"] != "ok":
-        out.append((f"runs:{name}", False, None, None, runs[0].get("message", runs[0]["status"])))
-    finest = _finest_ok(entry)
+    expected = m.expected_order
+    runs = sorted(m.runs, key=lambda r: r.dt)
+    if runs and not runs[0].ok:
+        out.append(Check("runs", False, m.name, note=runs[0].message or runs[0].status))
+    finest = m.finest
     if expected is not None and finest is not None:
-        order = entry["observed_order"]
+        order = m.observed_order
         if order is None:
-            worst = max(r["attitude_error"] for r in runs if r["attitude_error"] is not None)
-            out.append((f"order:{name}", worst <= cfg["final_error"], None, expected,
-                        f"no asymptotic range ({entry['order_note']}); every step within {worst:.2g} rad"))
+            worst = max(r.attitude_error for r in runs if r.attitude_error is not None)
+            out.append(Check("order", worst <= cfg["final_error"], m.name, None, expected,
+                             f"no asymptotic range ({m.order_note}); every step within {worst:.2g} rad"))
         else:
             passed = expected - cfg["order_tolerance"] <= order <= expected + cfg["order_excess"]
-            note = entry["order_note"]
+            note = m.order_note
             if passed and order > expected + cfg["order_tolerance"]:
                 note += "; faster than its order here: pre-asymptotic (the next error term still dominates)"
-            out.append((f"order:{name}", passed, order, expected, note))
+            out.append(Check("order", passed, m.name, order, expected, note))
         if expected >= 4 and not quick:
-            out.append((f"final-error:{name}", finest["attitude_error"] <= cfg["final_error"],
-                        finest["attitude_error"], cfg["final_error"], f"at dt = {finest['dt']:g} s"))
+            out.append(Check("final-error", finest.attitude_error <= cfg["final_error"], m.name,
+                             finest.attitude_error, cfg["final_error"], f"at dt = {finest.dt:g} s"))
     if torque_free and finest is not None and expected is not None and expected >= 4 and not quick:
-        drift = max(finest["energy_drift"], finest["momentum_drift"])
-        out.append((f"invariants:{name}", drift <= cfg["invariant_tolerance"], drift, cfg["invariant_tolerance"],
-                    f"energy and momentum drift at dt = {finest['dt']:g} s"))
+        drift = max(finest.energy_drift, finest.momentum_drift)
+        out.append(Check("invariants", drift <= cfg["invariant_tolerance"], m.name, drift, cfg["invariant_tolerance"],
+                         f"energy and momentum drift at dt = {finest.dt:g} s"))
     return out
 
 
-def _checks(scenario, data_methods, cfg, quick=False):
+def _checks(scenario, methods, cfg, quick=False) -> list[Check]:
     torque_free = scenario.torque is None
     checks = []
-
-    def add(name, passed, value, limit, note=""):
-        checks.append({"name": name, "passed": bool(passed), "value": _json_number(value),
-                       "limit": _json_number(limit), "note": note})
-
-    for name, entry in data_methods.items():
-        regular = _method_checks(name, entry, cfg, torque_free, quick)
-        if name in cfg["expected_to_fail"]:
-            failing = [c for c in regular if not c[1]]
-            note = "; ".join(f"{c[0]} fails" + (f" ({c[4]})" if c[4] else "") for c in failing)
-            add(f"expected-failure:{name}", bool(failing), None, None,
-                note or "expected to fail, but every check passed")
+    for m in methods.values():
+        regular = _method_checks(m, cfg, torque_free, quick)
+        if m.name in cfg["expected_to_fail"]:
+            failing = [c for c in regular if not c.passed]
+            note = "; ".join(f"{c.name} fails" + (f" ({c.note})" if c.note else "") for c in failing)
+            checks.append(Check("expected-failure", bool(failing), m.name,
+                                note=note or "expected to fail, but every check passed"))
         else:
-            for c in regular:
-                add(*c)
-    # MuJoCo RK4 and our best method agree at the finest step
-    ours = [(n, _finest_ok(e)) for n, e in data_methods.items()
-            if e["engine"] == "xcheck" and e["expected_order"] == 4 and n not in cfg["expected_to_fail"]]
-    ours = [(n, r) for n, r in ours if r is not None]
-    if "mujoco-rk4" in data_methods and ours and _finest_ok(data_methods["mujoco-rk4"]) is not None:
-        best_name, best = min(ours, key=lambda x: x[1]["attitude_error"])
-        mj = _finest_ok(data_methods["mujoco-rk4"])
-        worst = max(mj["attitude_error"], best["attitude_error"])
-        add("agreement:mujoco-rk4", worst <= cfg["agreement"], worst, cfg["agreement"],
-            f"mujoco-rk4 {mj['attitude_error']:.3g} rad and {best_name} {best['attitude_error']:.3g} rad against the "
-            f"{scenario.reference} reference at their finest steps")
+            checks += regular
+    # every engine's RK4 against our best fourth-order method, at their finest steps
+    ours = [m for m in methods.values() if m.engine == "xcheck" and m.expected_order == 4
+            and m.name not in cfg["expected_to_fail"] and m.finest is not None]
+    if ours:
+        best = min(ours, key=lambda m: m.finest.attitude_error)
+        for m in methods.values():
+            if not RUNNERS[m.name].agreement or m.finest is None:
+                continue
+            worst = max(m.finest.attitude_error, best.finest.attitude_error)
+            checks.append(Check("agreement", worst <= cfg["agreement"], m.name, worst, cfg["agreement"],
+                                f"{m.name} {m.finest.attitude_error:.3g} rad and {best.name} "
+                                f"{best.finest.attitude_error:.3g} rad against the {scenario.reference} reference at "
+                                "their finest steps"))
     return checks
-
-
-def _json_number(v):
-    if v is None:
-        return None
-    v = float(v)
-    return v if math.isfinite(v) else None
 
 
 def throughput_rows(studies) -> list[dict]:
     """Best steps per second of every method in every study (``xcheck.bench/1`` rows, batch 1)."""
     rows = []
     for st in studies:
-        for name, entry in st.data["methods"].items():
-            rates = [r["steps_per_second"] for r in entry["runs"] if r.get("steps_per_second")]
+        for name, m in st.methods.items():
+            rates = [r.steps_per_second for r in m.runs if r.steps_per_second]
             if rates:
-                rows.append({"engine": entry["engine"], "method": name, "scenario": st.data["scenario"], "batch": 1,
+                rows.append({"engine": m.engine, "method": name, "scenario": st.name, "batch": 1,
                              "steps_per_second": max(rates)})
     return rows

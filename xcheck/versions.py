@@ -16,12 +16,18 @@ def _version(package: str) -> str:
         return "not installed"
 
 
+#: What every result depends on besides xcheck itself and the engines.
+CORE_PACKAGES = ("numpy", "scipy", "numba", "matplotlib")
+
+
 def versions() -> dict:
-    """xcheck, mujoco, numpy, scipy, numba, matplotlib and Python versions (read from the installed
-    distributions, so that the core never imports mujoco for it)."""
-    return {"xcheck": __version__, "mujoco": _version("mujoco"), "numpy": _version("numpy"),
-            "scipy": _version("scipy"), "numba": _version("numba"), "matplotlib": _version("matplotlib"),
-            "python": platform.python_version()}
+    """Versions of xcheck, every engine's package (:data:`xcheck.engines.ENGINE_PACKAGES`), numpy, scipy,
+    numba, matplotlib and Python, read from the installed distributions (so that nothing imports an engine
+    for it)."""
+    from .engines import ENGINE_PACKAGES
+
+    return {"xcheck": __version__, **{name: _version(pkg) for name, pkg in ENGINE_PACKAGES.items()},
+            **{pkg: _version(pkg) for pkg in CORE_PACKAGES}, "python": platform.python_version()}
 
 
 def machine() -> dict:

@@ -2,10 +2,11 @@
 stage derivative written as the seed writes it.
 
 This module is compiled by numba (``cache=True``: compiled once per user and release into the folder of
-:mod:`xcheck._jit`, then loaded in ~0.2 s)
-when the torque is one of xcheck's torque models (:mod:`xcheck.fields`, plain data). For an arbitrary
-Python torque callable the *same source* is loaded a second time as ``..._kernels_python`` with ``jit``
-the identity, and runs in the interpreter: one code path per method, fast or general.
+:mod:`xcheck._jit`, then loaded in ~0.2 s) when the torque is one of xcheck's torque models
+(:mod:`xcheck.fields`, plain data). The same source is loaded two more times under other module names
+(:func:`xcheck.integrators._kernels_for`): ``..._kernels_inlined``, everything inlined for the batch path, and
+``..._kernels_python``, with ``jit`` the identity, which runs in the interpreter for an arbitrary Python torque
+callable: one code path per method, fast or general.
 
 State layouts (``y``, at most ``MAX_STATE`` floats; ``q`` is [w, x, y, z] body -> world, ``w`` the body rate):
 

@@ -12,6 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .. import rotations as rot  # noqa: E402
+from ..runners import RUNNERS  # noqa: E402
 
 __all__ = ["scenario_figures", "new_figure", "save_figure"]
 
@@ -98,7 +99,7 @@ def _convergence(data, colors):
         e = np.maximum(e, 1e-17)
         order = entry["observed_order"]
         label = f"{name} (p = {order:.2f})" if order is not None else name
-        ls = "--" if entry["engine"] == "mujoco" else "-"
+        ls = RUNNERS[name].line_style if name in RUNNERS else "-"
         ax.loglog(dt, e, ls, marker=_MARKERS[i % len(_MARKERS)], ms=4, lw=1.2, color=colors[name], label=label)
         all_dt += list(dt)
         all_e += list(e)

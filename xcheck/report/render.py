@@ -4,9 +4,7 @@ renamed into place only when complete; ``latest`` then points at it."""
 
 from __future__ import annotations
 
-import base64
 import errno
-import html
 import os
 import shutil
 import socket
@@ -16,23 +14,17 @@ from pathlib import Path
 import numpy as np
 
 from ..versions import machine, versions
+from .document import Cell, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
 from .io import write_json_atomic, write_text_atomic, write_trajectory_csv
 
-__all__ = ["write_report", "REPORT_SCHEMA", "verdict_of"]
+__all__ = ["write_report", "report_document", "REPORT_SCHEMA", "verdict_of"]
 
 REPORT_SCHEMA = "xcheck.report/1"
 
 
 def verdict_of(data: dict, method: str) -> str:
-    """``pass`` | ``fail`` | ``expected`` (an expected failure that happened) for one method of a study."""
-    if any(c["name"] == "reference" and not c["passed"] for c in data["checks"]):
-        return "fail"  # nothing could be measured
-    related = [c for c in data["checks"] if c["name"].split(":", 1)[-1] == method]
-    if not related:
-        return "info"
-    if any(c["name"].startswith("expected-failure:") for c in related):
-        return "expected" if all(c["passed"] for c in related) else "fail"
-    return "pass" if all(c["passed"] for c in related) else "fail"
+    """``pass`` | ``fail`` | ``expected`` | ``info`` for one method of a study's JSON (computed by the study)."""
+    return data["methods"][method]["verdict"]
 
 
 def _fmt(x, spec=".2e"):
@@ -66,19 +58,20 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
     tmp.mkdir()
     try:
         if pool is not None:
-            futures = {st.data["scenario"]: pool.submit(scenario_figures, st.data, st.series, tmp / "plots",
-                                                        quick=quick) for st in studies}
+            futures = {st.name: pool.submit(scenario_figures, st.data, st.series, tmp / "plots", quick=quick)
+                       for st in studies}
         for st in studies:
-            _write_csvs(st, tmp / "trajectories" / st.data["scenario"])
+            _write_csvs(st, tmp / "trajectories" / st.name)
         figures = {name: fut.result() for name, fut in futures.items()} if pool is not None else {
-            st.data["scenario"]: scenario_figures(st.data, st.series, tmp / "plots", quick=quick) for st in studies}
+            st.name: scenario_figures(st.data, st.series, tmp / "plots", quick=quick) for st in studies}
         results = {"schema": REPORT_SCHEMA, "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
                    "quick": quick, "versions": versions(), "machine": machine(),
                    "wall_time": wall_time, "passed": all(st.passed for st in studies),
                    "scenarios": [st.data for st in studies], "throughput": throughput or []}
         write_json_atomic(tmp / "results.json", results)
-        write_text_atomic(tmp / "report.md", _markdown(results, figures))
-        write_text_atomic(tmp / "index.html", _html(results, figures, tmp / "plots"))
+        document = report_document(studies, results, figures)
+        write_text_atomic(tmp / "report.md", to_markdown(document))
+        write_text_atomic(tmp / "index.html", to_html(document, tmp / "plots", title="xcheck cross-check report"))
         final = _rename_into_place(tmp, out_root, stamp)
     except BaseException:
         if pool is not None:
@@ -159,212 +152,101 @@ def _write_csvs(st, folder: Path):
     for method, s in st.series.items():
         write_trajectory_csv(
             folder / f"{method}.csv",
-            f"{st.data['scenario']} / {method}: the finest run (dt = {s['dt']:.6g} s), sampled every "
+            f"{st.name} / {method}: the finest run (dt = {s['dt']:.6g} s), sampled every "
             f"{max(s['dt'], 1 / 256):.6g} s; q [w, x, y, z] body->world, body rates in body components; "
             "attitude error against the reference (empty where it is not defined)",
             s["t"], s["q"], s["omega"], s["attitude_error"], s.get("euler"))
 
 
 # ------------------------------------------------------------------------------------------------
-# Markdown
+# the report as one document (xcheck.report.document), written as Markdown and as HTML
 # ------------------------------------------------------------------------------------------------
-def _front_rows(results):
-    methods = []
-    for sc in results["scenarios"]:
-        for m in sc["methods"]:
-            if m not in methods:
-                methods.append(m)
-    return methods
+LEGEND = [("Each cell: the observed order p and the attitude error [rad] at the finest step. ", None),
+          ("pass", "mark"), (" every check passed; ", None), ("fail", "mark"), (" a check failed; ", None),
+          ("expected", "mark"), (" a failure the scenario expects (Euler angles at gimbal lock); ", None),
+          ("info", "mark"), (" reported without checks.", None)]
 
 
-def _cell(sc, m):
-    if m not in sc["methods"]:
-        return "", "none"
-    e = sc["methods"][m]
-    v = verdict_of(sc, m)
-    finest = [r for r in e["runs"] if r["status"] == "ok"]
-    err = min(finest, key=lambda r: r["dt"])["attitude_error"] if finest else None
-    order = e["observed_order"]
-    text = f"p={order:.2f}" if order is not None else (e["status"] if e["status"] != "ok" else "p=—")
-    text += f" · {_fmt(err, '.1e')}"
-    return text, v
-
-
-_MARK = {"pass": "✅", "fail": "❌", "expected": "⚠️ expected", "info": "ℹ️", "none": ""}
-
-
-def _markdown(results, figures) -> str:
-    out = ["# xcheck cross-check report", ""]
-    verdict = "**PASSED**: every check passed." if results["passed"] else "**FAILED**: some checks failed."
-    out += [f"{verdict} Created {results['created']}" + (f" in {results['wall_time']:.1f} s" if results["wall_time"]
-                                                         else "") + (" (quick)" if results["quick"] else "") + ".", ""]
-    out += ["Each cell: the observed order p and the attitude error [rad] at the finest step. ✅ every check passed, "
-            "❌ a check failed, ⚠️ a failure the scenario expects (e.g. Euler angles at gimbal lock), ℹ️ reported "
-            "without checks.", ""]
-    methods = _front_rows(results)
-    out.append("| scenario | " + " | ".join(methods) + " |")
-    out.append("|---|" + "---|" * len(methods))
-    for sc in results["scenarios"]:
-        cells = []
-        for m in methods:
-            text, v = _cell(sc, m)
-            cells.append(f"{_MARK[v]} {text}".strip())
-        out.append(f"| {sc['scenario']} | " + " | ".join(cells) + " |")
-    out.append("")
-    for sc in results["scenarios"]:
-        out += _markdown_scenario(sc, figures.get(sc["scenario"], []))
-    out += _markdown_appendix(results)
-    return "\n".join(out) + "\n"
-
-
-def _markdown_scenario(sc, figs):
-    out = [f"## {sc['scenario']} — {'passed' if sc['passed'] else 'FAILED'}", "", sc.get("description", ""), ""]
-    ini = sc["initial"]
-    out += [f"Model `{sc['model']}`, {sc['duration']:g} s, reference **{sc['reference']}**; "
-            f"q0 = {(np.round(ini['quaternion'], 6) + 0.0).tolist()}, ω0 = {(np.round(ini['angular_velocity'], 6) + 0.0).tolist()} "
-            f"rad/s; torque: {sc['torque'] or 'none'}. Orders are measured above {sc['order_floor']:.2g} rad.", ""]
-    out += ["| check | result | value | limit | note |", "|---|---|---|---|---|"]
-    for c in sc["checks"]:
-        out.append(f"| {c['name']} | {'pass' if c['passed'] else '**FAIL**'} | {_fmt(c['value'], '.3g')} | "
-                   f"{_fmt(c['limit'], '.3g')} | {c['note']} |")
-    out.append("")
-    steps = sc["steps"]
-    out.append("| method | expected | observed | " + " | ".join(_dt(d) for d in steps) + " |")
-    out.append("|---|---|---|" + "---|" * len(steps))
-    for m, e in sc["methods"].items():
-        errs = {r["dt"]: (r["attitude_error"] if r["status"] == "ok" else r["status"]) for r in e["runs"]}
-        cells = [(_fmt(errs[d], ".1e") if not isinstance(errs.get(d), str) else errs[d]) if d in errs else ""
-                 for d in steps]
-        out.append(f"| {m} | {e['expected_order'] if e['expected_order'] is not None else 'adaptive'} | "
-                   f"{_fmt(e['observed_order'], '.2f')} | " + " | ".join(cells) + " |")
-    out.append("")
-    for file, caption in figs:
-        out += [f"![{caption}](plots/{file})", "", f"*{caption}*", ""]
-    return out
-
-
-def _markdown_appendix(results):
-    out = ["## Appendix: versions, machine, throughput", ""]
-    out.append("Versions: " + ", ".join(f"{k} {v}" for k, v in results["versions"].items()) + ".")
-    m = results["machine"]
-    out += [f"Machine: {m['platform']}, {m['processor']}, {m['cpus']} CPUs.", ""]
-    if results["throughput"]:
-        out += ["| engine | method | scenario | batch | steps/s |", "|---|---|---|---|---|"]
-        for r in results["throughput"]:
-            out.append(f"| {r['engine']} | {r['method']} | {r['scenario']} | {r['batch']} | "
-                       f"{r['steps_per_second']:.3g} |")
-        out.append("")
-    return out
-
-
-# ------------------------------------------------------------------------------------------------
-# HTML (self-contained)
-# ------------------------------------------------------------------------------------------------
-_CSS = """
-body{font-family:system-ui,-apple-system,Segoe UI,Helvetica,Arial,sans-serif;margin:2em auto;max-width:1200px;
-color:#222;line-height:1.4;padding:0 1em}
-h1{font-size:1.6em}h2{margin-top:2em;border-bottom:1px solid #ddd;padding-bottom:.2em}
-table{border-collapse:collapse;margin:1em 0;font-size:.85em}
-th,td{border:1px solid #ddd;padding:.25em .5em;text-align:left;vertical-align:top}
-th{background:#f4f4f4}td.num{text-align:right;font-family:ui-monospace,Menlo,Consolas,monospace}
-td.pass{background:#dff5e1}td.fail{background:#fbdada}td.expected{background:#fff0c8}td.info{background:#eef}
-.verdict{font-size:1.2em;padding:.5em 1em;display:inline-block;border-radius:4px}
-.verdict.pass{background:#dff5e1}.verdict.fail{background:#fbdada}
-figure{margin:1em 0}figure img{max-width:100%}figcaption{font-size:.85em;color:#555}
-.small{font-size:.85em;color:#555}
-"""
-
-
-def _e(x):
-    return html.escape(str(x))
-
-
-def _html(results, figures, plot_dir: Path) -> str:
-    parts = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
-             "<title>xcheck cross-check report</title>", f"<style>{_CSS}</style></head><body>",
-             "<h1>xcheck cross-check report</h1>"]
+def report_document(studies, results: dict, figures: dict) -> list:
+    """The report's blocks: the verdict and the front table, one section per scenario, the appendix.
+    ``results`` is the report's JSON (for its metadata), ``figures`` maps a scenario to its ``[(file, caption)]``."""
     ok = results["passed"]
-    parts.append(f"<p class='verdict {'pass' if ok else 'fail'}'>{'PASSED: every check passed' if ok else 'FAILED: some checks failed'}</p>")
-    parts.append(f"<p class='small'>Created {_e(results['created'])}"
-                 + (f" in {results['wall_time']:.1f} s" if results["wall_time"] else "")
-                 + (" (quick: fewer steps; the final-error and invariant checks need the full range and are "
-                    "not applied)" if results["quick"] else "") + ". "
-                 + "Versions: " + ", ".join(f"{_e(k)} {_e(v)}" for k, v in results["versions"].items())
-                 + f". Machine: {_e(results['machine']['platform'])}, {results['machine']['cpus']} CPUs.</p>")
-    parts.append("<p>Each cell: observed order <i>p</i> and attitude error [rad] at the finest step. Green: every "
-                 "check passed; red: a check failed; amber: a failure the scenario expects (Euler angles at gimbal "
-                 "lock); blue: reported without checks.</p>")
-    methods = _front_rows(results)
-    parts.append("<table><tr><th>scenario</th>" + "".join(f"<th>{_e(m)}</th>" for m in methods) + "</tr>")
-    for sc in results["scenarios"]:
-        row = [f"<td><a href='#{_e(sc['scenario'])}'>{_e(sc['scenario'])}</a></td>"]
-        for m in methods:
-            text, v = _cell(sc, m)
-            row.append(f"<td class='{v}'>{_e(text)}</td>")
-        parts.append("<tr>" + "".join(row) + "</tr>")
-    parts.append("</table>")
-    for sc in results["scenarios"]:
-        parts += _html_scenario(sc, figures.get(sc["scenario"], []), plot_dir)
-    parts += _html_appendix(results)
-    parts.append("</body></html>")
-    return "\n".join(parts) + "\n"
+    when = f"Created {results['created']}" + (f" in {results['wall_time']:.1f} s" if results["wall_time"] else "")
+    if results["quick"]:
+        when += (" (quick: fewer steps; the final-error and invariant checks need the full range and are not "
+                 "applied)")
+    blocks = [Heading(1, "xcheck cross-check report"),
+              Verdict("PASSED: every check passed", "pass") if ok else Verdict("FAILED: some checks failed", "fail"),
+              Para(when + ". Versions: " + ", ".join(f"{k} {v}" for k, v in results["versions"].items()) +
+                   f". Machine: {results['machine']['platform']}, {results['machine']['cpus']} CPUs.", small=True),
+              Para(LEGEND)]
+    methods = []
+    for st in studies:
+        methods += [m for m in st.methods if m not in methods]
+    blocks.append(Table(["scenario"] + methods,
+                        [[Cell(st.name, link=st.name)] + [_front_cell(st, m) for m in methods] for st in studies]))
+    for st in studies:
+        blocks += _scenario_blocks(st, figures.get(st.name, []))
+    blocks += _appendix_blocks(results)
+    return blocks
 
 
-def _html_scenario(sc, figs, plot_dir):
-    out = [f"<h2 id='{_e(sc['scenario'])}'>{_e(sc['scenario'])} — "
-           f"<span class='verdict {'pass' if sc['passed'] else 'fail'}'>{'passed' if sc['passed'] else 'FAILED'}</span></h2>",
-           f"<p>{_e(sc.get('description', ''))}</p>"]
-    ini = sc["initial"]
-    out.append(f"<p class='small'>Model <code>{_e(sc['model'])}</code>, {sc['duration']:g} s, reference "
-               f"<b>{_e(sc['reference'])}</b>; q0 = {_e((np.round(ini['quaternion'], 6) + 0.0).tolist())}, ω0 = "
-               f"{_e((np.round(ini['angular_velocity'], 6) + 0.0).tolist())} rad/s; torque: {_e(sc['torque'] or 'none')}. "
-               f"Orders are measured on errors above {sc['order_floor']:.2g} rad.</p>")
-    out.append("<table><tr><th>check</th><th>result</th><th>value</th><th>limit</th><th>note</th></tr>")
-    for c in sc["checks"]:
-        cls = "pass" if c["passed"] else "fail"
-        if c["name"].startswith("expected-failure:") and c["passed"]:
-            cls = "expected"
-        out.append(f"<tr><td>{_e(c['name'])}</td><td class='{cls}'>{'pass' if c['passed'] else 'FAIL'}</td>"
-                   f"<td class='num'>{_fmt(c['value'], '.3g')}</td><td class='num'>{_fmt(c['limit'], '.3g')}</td>"
-                   f"<td>{_e(c['note'])}</td></tr>")
-    out.append("</table>")
-    steps = sc["steps"]
-    out.append("<table><tr><th>method</th><th>expected</th><th>observed</th>"
-               + "".join(f"<th>{_dt(d)}</th>" for d in steps) + "<th>steps/s</th></tr>")
-    for m, e in sc["methods"].items():
-        by_dt = {r["dt"]: r for r in e["runs"]}
+def _front_cell(st, name) -> Cell:
+    m = st.methods.get(name)
+    if m is None:
+        return Cell()
+    finest = m.finest
+    text = f"p={m.observed_order:.2f}" if m.observed_order is not None else (m.status if m.status != "ok" else "p=—")
+    return Cell(f"{text} · {_fmt(finest.attitude_error if finest else None, '.1e')}", m.verdict)
+
+
+def _scenario_blocks(st, figs) -> list:
+    sc = st.scenario
+    blocks = [Heading(2, sc.name, anchor=sc.name, badge=("passed", "pass") if st.passed else ("FAILED", "fail"))]
+    if sc.description:
+        blocks.append(Para(sc.description))
+    q0 = (np.round(sc.q0, 6) + 0.0).tolist()
+    w0 = (np.round(sc.omega0, 6) + 0.0).tolist()
+    blocks.append(Para([("Model ", None), (str(sc.model), "code"), (f", {sc.duration:g} s, reference ", None),
+                        (sc.reference, "b"), (f"; q0 = {q0}, ω0 = {w0} rad/s; torque: {sc.torque or 'none'}. Orders "
+                                              f"are measured on errors above {st.order_floor:.2g} rad.", None)],
+                       small=True))
+    rows = []
+    for c in st.checks:
+        cls = ("expected" if c.kind == "expected-failure" else "pass") if c.passed else "fail"
+        rows.append([c.name, Cell("pass" if c.passed else "FAIL", cls), Cell(_fmt(c.value, ".3g"), num=True),
+                     Cell(_fmt(c.limit, ".3g"), num=True), c.note])
+    blocks.append(Table(["check", "result", "value", "limit", "note"], rows))
+    rows = []
+    for name, m in st.methods.items():
+        by_dt = {r.dt: r for r in m.runs}
         cells = []
-        for d in steps:
+        for d in st.steps:
             r = by_dt.get(d)
             if r is None:
-                cells.append("<td></td>")
-            elif r["status"] != "ok":
-                cells.append(f"<td class='fail' title='{_e(r.get('message', ''))}'>{_e(r['status'])}</td>")
+                cells.append(Cell())
+            elif not r.ok:
+                cells.append(Cell(r.status, "fail", title=r.message))
             else:
-                cells.append(f"<td class='num'>{r['attitude_error']:.1e}</td>")
-        rates = [r["steps_per_second"] for r in e["runs"] if r.get("steps_per_second")]
-        rate = f"{max(rates):.3g}" if rates else ""
-        expected = e["expected_order"] if e["expected_order"] is not None else "adaptive"
-        out.append(f"<tr><td class='{verdict_of(sc, m)}'>{_e(m)}</td><td>{expected}</td>"
-                   f"<td class='num'>{_fmt(e['observed_order'], '.2f')}</td>{''.join(cells)}"
-                   f"<td class='num'>{rate}</td></tr>")
-    out.append("</table>")
-    for file, caption in figs:
-        data = base64.b64encode((plot_dir / file).read_bytes()).decode("ascii")
-        out.append(f"<figure><img alt='{_e(caption)}' src='data:image/png;base64,{data}'>"
-                   f"<figcaption>{_e(caption)}</figcaption></figure>")
-    return out
+                cells.append(Cell(f"{r.attitude_error:.1e}", num=True))
+        rates = [r.steps_per_second for r in m.runs if r.steps_per_second]
+        rows.append([Cell(name, m.verdict), "adaptive" if m.expected_order is None else str(m.expected_order),
+                     Cell(_fmt(m.observed_order, ".2f"), num=True), *cells,
+                     Cell(f"{max(rates):.3g}" if rates else "", num=True)])
+    blocks.append(Table(["method", "expected", "observed", *(_dt(d) for d in st.steps), "steps/s"], rows))
+    blocks += [Figure(file, caption) for file, caption in figs]
+    return blocks
 
 
-def _html_appendix(results):
-    out = ["<h2 id='appendix'>Appendix: throughput</h2>"]
+def _appendix_blocks(results) -> list:
+    m = results["machine"]
+    blocks = [Heading(2, "Appendix: versions, machine, throughput", anchor="appendix"),
+              Para("Versions: " + ", ".join(f"{k} {v}" for k, v in results["versions"].items()) +
+                   f". Machine: {m['platform']}, {m['processor']}, {m['cpus']} CPUs."),
+              Para("Steps per second (batch: body-steps per second)." if results["throughput"] else
+                   "No throughput measured.", small=True)]
     if results["throughput"]:
-        out.append("<p class='small'>Steps per second (batch: body-steps per second).</p>")
-        out.append("<table><tr><th>engine</th><th>method</th><th>scenario</th><th>batch</th><th>steps/s</th></tr>")
-        for r in results["throughput"]:
-            out.append(f"<tr><td>{_e(r['engine'])}</td><td>{_e(r['method'])}</td><td>{_e(r['scenario'])}</td>"
-                       f"<td class='num'>{r['batch']}</td><td class='num'>{r['steps_per_second']:.3g}</td></tr>")
-        out.append("</table>")
-    else:
-        out.append("<p>No throughput measured.</p>")
-    return out
+        blocks.append(Table(["engine", "method", "scenario", "batch", "steps/s"],
+                            [[r["engine"], r["method"], r["scenario"], Cell(str(r["batch"]), num=True),
+                              Cell(f"{r['steps_per_second']:.3g}", num=True)] for r in results["throughput"]]))
+    return blocks

@@ -1,0 +1,62 @@
+"""Accuracy metrics (xcheck.metrics) against stated truths: a power law e = C dt^p has observed order p
+exactly; the rule drops round-off, pre-asymptotic and floor errors; invariants of a body at rest and in steady
+spin are exact."""
+
+import numpy as np
+import pytest
+
+from xcheck.metrics import errors_against, invariant_drift, kinetic_energy, observed_order, world_momentum
+from xcheck.trajectory import Trajectory
+
+DTS = [2.0**-k for k in range(1, 9)]
+
+
+@pytest.mark.parametrize("p", [1, 2, 4])
+def test_power_law_has_its_order(p):
+    fit = observed_order(DTS, [1e-3 * dt**p for dt in DTS], floor=1e-30)
+    assert fit.order == pytest.approx(p, abs=1e-12) and len(fit.local_orders) == len(DTS) - 1
+
+
+def test_round_off_floor_and_ceiling_are_dropped():
+    errors = [0.5, 0.2] + [1e-4 * dt**4 for dt in DTS[2:6]] + [3e-12, 5e-12]  # pre-asymptotic, then round-off
+    fit = observed_order(DTS, errors, floor=1e-12)
+    # above the ceiling (0.1): the first two; after the smallest error (3e-12 at DTS[6]): the last one
+    assert fit.used == DTS[2:7]
+    # local orders 4, 4, 4, then 0.99 into round-off: the median of the three finest is still 4
+    assert fit.order == pytest.approx(4, abs=1e-12) and fit.local_orders[-1] == pytest.approx(0.99, abs=0.01)
+
+
+def test_no_order_without_two_points():
+    assert observed_order(DTS[:2], [1e-14, 1e-15]).order is None  # below the floor
+    assert observed_order(DTS[:2], [None, None]).note.startswith("no run completed")
+
+
+def test_median_ignores_one_odd_pair():
+    errors = [1e-3 * dt**4 for dt in DTS]
+    errors[-2] *= 3.0  # one odd point moves two local orders; the median of the last three keeps 4 within 1.6
+    fit = observed_order(DTS, errors, floor=1e-30)
+    assert abs(fit.order - 4) < abs(np.log2(3)) + 1e-9
+
+
+def test_errors_against_itself_are_zero():
+    t = np.linspace(0, 1, 5)
+    q = np.tile([1.0, 0, 0, 0], (5, 1))
+    w = np.tile([0.1, 0.2, 0.3], (5, 1))
+    err = errors_against(Trajectory(t=t, q=q, omega=w), q, w)
+    assert err == {"attitude_error": 0.0, "max_attitude_error": 0.0, "omega_error": 0.0, "max_omega_error": 0.0}
+    # a rotation of 1e-3 rad about z: the attitude error is that angle
+    q2 = np.tile([np.cos(5e-4), 0, 0, np.sin(5e-4)], (5, 1))
+    assert errors_against(Trajectory(t=t, q=q2, omega=w), q, w)["attitude_error"] == pytest.approx(1e-3, rel=1e-12)
+
+
+def test_steady_spin_invariants_are_exact():
+    """Truth: spin about a principal axis is steady; E = 1/2 I w^2, |H| = I w, and nothing drifts."""
+    I = np.diag([1.0, 2.0, 3.0])
+    t = np.linspace(0, 1, 11)
+    ang = 0.5 * 2.0 * t  # w = 2 rad/s about z
+    q = np.stack([np.cos(ang), 0 * t, 0 * t, np.sin(ang)], axis=1)
+    w = np.tile([0.0, 0.0, 2.0], (11, 1))
+    assert kinetic_energy(I, w[0]) == pytest.approx(6.0)
+    np.testing.assert_allclose(world_momentum(I, q, w), np.tile([0, 0, 6.0], (11, 1)), atol=1e-15)
+    drift = invariant_drift(I, Trajectory(t=t, q=q, omega=w))
+    assert drift["energy_drift"] == 0 and drift["momentum_drift"] < 1e-15 and drift["norm_drift"] < 1e-15

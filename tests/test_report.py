@@ -1,0 +1,97 @@
+"""The report model and its two emitters: Markdown and HTML are written from one list of blocks, so they show
+the same tables (same headers, same rows) and the same figures, in the same order; text is escaped for each."""
+
+import re
+from html.parser import HTMLParser
+
+import pytest
+
+from xcheck.report.document import Cell, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
+from xcheck.report.render import write_report
+from xcheck.scenario import resolve_scenario
+from xcheck.study import run_study
+
+
+class _Tables(HTMLParser):
+    """Headers and row counts of every table, and every figure's caption, in document order."""
+
+    def __init__(self):
+        super().__init__()
+        self.tables, self.figures, self._cell, self._in = [], [], None, None
+
+    def handle_starttag(self, tag, attrs):
+        if tag == "table":
+            self.tables.append({"header": [], "rows": 0})
+        elif tag == "tr" and self.tables:
+            self.tables[-1]["rows"] += 1
+        elif tag in ("th", "figcaption"):
+            self._in, self._cell = tag, ""
+
+    def handle_data(self, data):
+        if self._in:
+            self._cell += data
+
+    def handle_endtag(self, tag):
+        if tag == "th" and self._in == "th":
+            self.tables[-1]["header"].append(self._cell)
+        elif tag == "figcaption":
+            self.figures.append(self._cell)
+        if tag == self._in:
+            self._in = None
+
+
+def markdown_tables(md: str):
+    lines = md.splitlines()
+    out = []
+    for i, line in enumerate(lines[:-1]):
+        if line.startswith("| ") and lines[i + 1].startswith("|---"):
+            header = [h.strip() for h in line.strip("|").split(" | ")]
+            rows = 1
+            while i + 2 + rows - 1 < len(lines) and lines[i + 2 + rows - 1].startswith("| "):
+                rows += 1
+            out.append({"header": header, "rows": rows})
+    return out
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    st = run_study(resolve_scenario("tumbler-intermediate-axis"), methods=["lie-rkmk4", "mujoco-rk4", "euler-rk4"],
+                   steps=[0.125, 0.0625, 0.03125], workers=1)
+    return write_report([st], tmp_path_factory.mktemp("r"), throughput=[
+        {"engine": "xcheck", "method": "lie-rkmk4", "scenario": "tumbler-intermediate-axis", "batch": 1,
+         "steps_per_second": 1e6}])
+
+
+def test_markdown_and_html_show_the_same_tables_and_figures(report):
+    md = (report / "report.md").read_text()
+    parser = _Tables()
+    parser.feed((report / "index.html").read_text())
+    # front table, checks, methods, throughput
+    assert len(parser.tables) == 4
+    assert markdown_tables(md) == parser.tables
+    assert parser.tables[2]["header"] == ["method", "expected", "observed", "1/8", "1/16", "1/32", "steps/s"]
+    assert parser.tables[2]["rows"] == 4  # header + 3 methods
+    md_figures = re.findall(r"^!\[(.*)\]\(plots/(.*)\)$", md, flags=re.M)
+    assert [caption for caption, _ in md_figures] == parser.figures and len(parser.figures) >= 3
+    assert all((report / "plots" / file).is_file() for _, file in md_figures)
+
+
+def test_emitters_escape_text(tmp_path):
+    blocks = [Heading(2, "a <b> & c", anchor="x", badge=("ok", "pass")), Verdict("FAILED", "fail"),
+              Para([("x|y ", None), ("<code>", "code"), ("fail", "mark")]),
+              Table(["h|1", "h2"], [[Cell("1|2", "fail", title="it's <bad>"), "plain"]])]
+    md = to_markdown(blocks)
+    assert "## a <b> & c — ✅ ok" in md and "❌ **FAILED**" in md and "x|y `<code>`❌" in md
+    assert "| h|1 | h2 |" in md and "| ❌ 1\\|2 | plain |" in md
+    page = to_html(blocks, tmp_path, title="t")
+    assert "<h2 id='x'>a &lt;b&gt; &amp; c — <span class='verdict pass'>ok</span></h2>" in page
+    assert "<code>&lt;code&gt;</code><span class='chip fail'></span>" in page
+    assert "<td class='fail' title='it&#x27;s &lt;bad&gt;'>1|2</td>" in page
+
+
+def test_unknown_block_is_refused(tmp_path):
+    with pytest.raises(TypeError, match="not a report block"):
+        to_markdown(["text"])
+    (tmp_path / "x.png").write_bytes(b"")
+    with pytest.raises(TypeError, match="not a report block"):
+        to_html([Figure("x.png", "c"), 3], tmp_path, title="t")

@@ -1,0 +1,92 @@
+"""The study's judgement (xcheck.study.assemble) on made-up worker results with known answers: orders and
+checks, the agreement check for every engine RK4 (runners with ``agreement``), expected failures, a reference
+that could not be computed, and the JSON it makes (schema xcheck.convergence/1)."""
+
+import dataclasses
+
+import pytest
+
+from xcheck.results import Run
+from xcheck.runners import RUNNERS
+from xcheck.scenario import resolve_scenario
+from xcheck.study import assemble, run_study
+
+STEPS = [2.0**-k for k in range(3, 8)]
+
+
+def runs(p, c=1e-2):
+    """Runs whose final error is exactly c dt^p (an observed order of p)."""
+    return [Run(dt, attitude_error=c * dt**p, max_attitude_error=c * dt**p, omega_error=0.0, max_omega_error=0.0,
+                energy_drift=1e-14, momentum_drift=1e-14, norm_drift=0.0, wall_time=0.01, steps_per_second=1e5)
+            for dt in STEPS]
+
+
+@pytest.fixture
+def scenario():
+    return resolve_scenario("tumbler-intermediate-axis")
+
+
+def result(method, rs, **extra):
+    return {"method": method, "runs": rs, "series": None, **extra}
+
+
+def test_orders_and_checks(scenario):
+    st = assemble(scenario, STEPS, [result("lie-rkmk4", runs(4)), result("lie-thesis-172", runs(2)),
+                                    result("mujoco-euler", runs(2))], quick=True)
+    m = st.methods
+    assert m["lie-rkmk4"].observed_order == pytest.approx(4) and m["lie-rkmk4"].verdict == "pass"
+    assert m["lie-thesis-172"].verdict == "pass"  # expected order 2
+    assert m["mujoco-euler"].verdict == "pass"  # 2 <= 1 + order_excess: faster than its order is not a defect
+    checks = {c.name: c for c in st.checks}
+    assert checks["order:mujoco-euler"].note.endswith("pre-asymptotic (the next error term still dominates)")
+    assert st.passed and "final-error:lie-rkmk4" not in checks  # quick: no final-error check
+
+
+def test_a_lower_order_fails(scenario):
+    st = assemble(scenario, STEPS, [result("formulation-2", runs(3))])
+    c = {c.name: c for c in st.checks}["order:formulation-2"]
+    assert not c.passed and c.value == pytest.approx(3) and c.limit == 4 and not st.passed
+    assert st.methods["formulation-2"].verdict == "fail"
+
+
+def test_agreement_runs_for_every_engine_rk4(scenario, monkeypatch):
+    """Truth: |e_engine| and |e_ours| at the finest step; the check takes the larger of the two."""
+    st = assemble(scenario, STEPS, [result("lie-rkmk4", runs(4, 1e-6)), result("mujoco-rk4", runs(4, 2e-6)),
+                                    result("mujoco-euler", runs(1))])
+    agreement = [c for c in st.checks if c.kind == "agreement"]
+    assert [c.method for c in agreement] == ["mujoco-rk4"]
+    assert agreement[0].value == pytest.approx(2e-6 * STEPS[-1] ** 4)
+    # another engine's RK4 joins by its runner's flag alone
+    monkeypatch.setitem(RUNNERS, "mujoco-euler", dataclasses.replace(RUNNERS["mujoco-euler"], agreement=True))
+    st = assemble(scenario, STEPS, [result("lie-rkmk4", runs(4, 1e-6)), result("mujoco-euler", runs(1))])
+    assert [c.name for c in st.checks if c.kind == "agreement"] == ["agreement:mujoco-euler"]
+
+
+def test_expected_failure(scenario):
+    sc = dataclasses.replace(scenario, checks={**scenario.checks, "expected_to_fail": ["euler-rk4"]})
+    failing = assemble(sc, STEPS, [result("euler-rk4", runs(2))])
+    assert failing.methods["euler-rk4"].verdict == "expected" and failing.passed
+    passing = assemble(sc, STEPS, [result("euler-rk4", runs(4))])
+    assert passing.methods["euler-rk4"].verdict == "fail" and not passing.passed
+    assert passing.checks[0].note == "expected to fail, but every check passed"
+
+
+def test_reference_failure_is_the_one_check(scenario):
+    rs = [Run.failed(dt, "failed", "no reference: budget", 0.0) for dt in STEPS]
+    st = assemble(scenario, STEPS, [result("lie-rkmk4", rs, reference_error="budget")])
+    assert [c.name for c in st.checks] == ["reference"] and not st.passed
+    assert st.methods["lie-rkmk4"].verdict == "fail" and st.methods["lie-rkmk4"].status == "failed"
+
+
+def test_json_keeps_the_schema(scenario):
+    data = assemble(scenario, STEPS, [result("lie-rkmk4", runs(4))]).data
+    assert data["schema"] == "xcheck.convergence/1" and data["scenario"] == "tumbler-intermediate-axis"
+    assert set(data) >= {"description", "model", "duration", "reference", "torque", "initial", "quick", "steps",
+                         "order_floor", "versions", "methods", "checks", "passed"}
+    assert set(data["methods"]["lie-rkmk4"]) >= {"engine", "expected_order", "observed_order", "order_note",
+                                                 "local_orders", "status", "runs", "verdict"}
+
+
+def test_run_study_refuses_bad_steps(scenario):
+    with pytest.raises(ValueError, match="steps: the step 50 s is longer than the duration"):
+        run_study(scenario, methods=["lie-rkmk4"], steps=[50.0], workers=1)

@@ -1,0 +1,161 @@
+"""One report model, two emitters: the report is a list of blocks (headings, paragraphs, tables, figures), built
+once (:mod:`xcheck.report.render`) and written as Markdown (:func:`to_markdown`) and as self-contained HTML
+(:func:`to_html`). Both emit every block, so the two cannot drift apart.
+
+Cells and badges carry a verdict class (``pass``, ``fail``, ``expected``, ``info``): a colour in HTML, a mark in
+Markdown. Inline text is a string or a list of spans ``(text, style)`` with style ``None``, ``"b"``, ``"i"``,
+``"code"`` or ``"mark"`` (the text is a verdict class: an emoji in Markdown, a coloured chip in HTML).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+from dataclasses import dataclass, field
+from pathlib import Path
+
+__all__ = ["Heading", "Para", "Verdict", "Cell", "Table", "Figure", "to_markdown", "to_html"]
+
+
+@dataclass
+class Heading:
+    level: int
+    text: str
+    anchor: str | None = None
+    badge: tuple[str, str] | None = None  # (text, verdict class)
+
+
+@dataclass
+class Para:
+    spans: object  # str or [(text, style)]
+    small: bool = False
+
+
+@dataclass
+class Verdict:
+    """The verdict of the whole report: a badge."""
+
+    text: str
+    cls: str
+
+
+@dataclass
+class Cell:
+    text: str = ""
+    cls: str = ""  # verdict class, or "" for none
+    title: str = ""  # a tooltip in HTML (e.g. why a run failed)
+    num: bool = False
+    link: str | None = None  # an anchor in the same document
+
+
+@dataclass
+class Table:
+    header: list
+    rows: list = field(default_factory=list)  # lists of Cell (or str)
+
+
+@dataclass
+class Figure:
+    file: str  # in plots/
+    caption: str
+
+
+_MARK = {"pass": "✅", "fail": "❌", "expected": "⚠️", "info": "ℹ️"}
+
+
+def _spans(spans):
+    return [(spans, None)] if isinstance(spans, str) else list(spans)
+
+
+def _cell(c):
+    return c if isinstance(c, Cell) else Cell(str(c))
+
+
+# ------------------------------------------------------------------------------------------------
+def to_markdown(blocks) -> str:
+    out = []
+    for b in blocks:
+        if isinstance(b, Heading):
+            badge = f" — {_MARK.get(b.badge[1], '')} {b.badge[0]}" if b.badge else ""
+            out += ["#" * b.level + " " + b.text + badge, ""]
+        elif isinstance(b, Para):
+            style = {None: "{}", "b": "**{}**", "i": "*{}*", "code": "`{}`"}
+            text = "".join(_MARK[t] if s == "mark" else style[s].format(t) if t else "" for t, s in _spans(b.spans))
+            out += [text, ""]
+        elif isinstance(b, Verdict):
+            out += [f"{_MARK.get(b.cls, '')} **{b.text}**".strip(), ""]
+        elif isinstance(b, Table):
+            out.append("| " + " | ".join(b.header) + " |")
+            out.append("|" + "---|" * len(b.header))
+            for row in b.rows:
+                cells = []
+                for c in map(_cell, row):
+                    text = c.text.replace("|", "\\|").replace("\n", " ")
+                    text = f"[{text}](#{c.link})" if c.link else text
+                    cells.append(f"{_MARK[c.cls]} {text}".strip() if c.cls in _MARK else text)
+                out.append("| " + " | ".join(cells) + " |")
+            out.append("")
+        elif isinstance(b, Figure):
+            out += [f"![{b.caption}](plots/{b.file})", "", f"*{b.caption}*", ""]
+        else:
+            raise TypeError(f"not a report block: {b!r}")
+    return "\n".join(out).rstrip() + "\n"
+
+
+# ------------------------------------------------------------------------------------------------
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Helvetica,Arial,sans-serif;margin:2em auto;max-width:1200px;
+color:#222;line-height:1.4;padding:0 1em}
+h1{font-size:1.6em}h2{margin-top:2em;border-bottom:1px solid #ddd;padding-bottom:.2em}
+table{border-collapse:collapse;margin:1em 0;font-size:.85em}
+th,td{border:1px solid #ddd;padding:.25em .5em;text-align:left;vertical-align:top}
+th{background:#f4f4f4}td.num{text-align:right;font-family:ui-monospace,Menlo,Consolas,monospace}
+td.pass{background:#dff5e1}td.fail{background:#fbdada}td.expected{background:#fff0c8}td.info{background:#eef}
+.verdict{font-size:1.2em;padding:.5em 1em;display:inline-block;border-radius:4px}
+.verdict.pass{background:#dff5e1}.verdict.fail{background:#fbdada}.verdict.expected{background:#fff0c8}
+figure{margin:1em 0}figure img{max-width:100%}figcaption{font-size:.85em;color:#555}
+.small{font-size:.85em;color:#555}
+.chip{display:inline-block;width:.9em;height:.9em;border:1px solid #bbb;vertical-align:middle;margin:0 .15em}
+.chip.pass{background:#dff5e1}.chip.fail{background:#fbdada}.chip.expected{background:#fff0c8}.chip.info{background:#eef}
+"""
+
+
+def _e(x) -> str:
+    return html.escape(str(x), quote=True)
+
+
+def to_html(blocks, plot_dir: Path, *, title: str) -> str:
+    """Self-contained HTML: the figures are read from ``plot_dir`` and embedded."""
+    parts = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>", f"<title>{_e(title)}</title>",
+             f"<style>{_CSS}</style></head><body>"]
+    for b in blocks:
+        if isinstance(b, Heading):
+            anchor = f" id='{_e(b.anchor)}'" if b.anchor else ""
+            badge = f" — <span class='verdict {_e(b.badge[1])}'>{_e(b.badge[0])}</span>" if b.badge else ""
+            parts.append(f"<h{b.level}{anchor}>{_e(b.text)}{badge}</h{b.level}>")
+        elif isinstance(b, Para):
+            tags = {None: "{}", "b": "<b>{}</b>", "i": "<i>{}</i>", "code": "<code>{}</code>",
+                    "mark": "<span class='chip {}'></span>"}
+            text = "".join(tags[s].format(_e(t)) for t, s in _spans(b.spans))
+            parts.append(f"<p class='small'>{text}</p>" if b.small else f"<p>{text}</p>")
+        elif isinstance(b, Verdict):
+            parts.append(f"<p class='verdict {_e(b.cls)}'>{_e(b.text)}</p>")
+        elif isinstance(b, Table):
+            parts.append("<table><tr>" + "".join(f"<th>{_e(h)}</th>" for h in b.header) + "</tr>")
+            for row in b.rows:
+                cells = []
+                for c in map(_cell, row):
+                    cls = " ".join(x for x in (c.cls, "num" if c.num else "") if x)
+                    attrs = (f" class='{cls}'" if cls else "") + (f" title='{_e(c.title)}'" if c.title else "")
+                    text = f"<a href='#{_e(c.link)}'>{_e(c.text)}</a>" if c.link else _e(c.text)
+                    cells.append(f"<td{attrs}>{text}</td>")
+                parts.append("<tr>" + "".join(cells) + "</tr>")
+            parts.append("</table>")
+        elif isinstance(b, Figure):
+            data = base64.b64encode((Path(plot_dir) / b.file).read_bytes()).decode("ascii")
+            parts.append(f"<figure><img alt='{_e(b.caption)}' src='data:image/png;base64,{data}'>"
+                         f"<figcaption>{_e(b.caption)}</figcaption></figure>")
+        else:
+            raise TypeError(f"not a report block: {b!r}")
+    parts.append("</body></html>")
+    return "\n".join(parts) + "\n"

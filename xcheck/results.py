@@ -1,0 +1,113 @@
+"""What a cross-check found, as typed records computed once: a :class:`Run` (one method at one step), a
+:class:`MethodResult` (its runs, observed order, finest good run and verdict) and a :class:`Check` (kind,
+method, passed, value, limit, note). The JSON of schema ``xcheck.convergence/1`` is made from them at the edge
+(``to_json``), with every key it has always had; ``verdict`` is new.
+
+Verdicts: ``pass`` every check of the method passed; ``fail`` one failed (or the study's reference could not
+be computed); ``expected`` the failure the scenario declares (``expected_to_fail``) happened; ``info`` the
+method has no checks (reported only).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+__all__ = ["Run", "Check", "MethodResult", "json_number", "VERDICTS"]
+
+VERDICTS = ("pass", "fail", "expected", "info")
+
+
+def json_number(v):
+    """``v`` as a JSON number, or None (None, NaN and infinities have no JSON number)."""
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+@dataclass
+class Run:
+    """One run of one method at one step. Errors are against the reference at the final time (``attitude_error``
+    [rad], ``omega_error`` [rad/s]) and their maxima over the run; drifts are relative (energy, momentum) or
+    absolute (quaternion norm); ``None`` where not measured (a failed run, a torqued scenario's invariants)."""
+
+    dt: float
+    status: str = "ok"  # "ok" | "singular" | "failed"
+    message: str = ""
+    attitude_error: float | None = None
+    max_attitude_error: float | None = None
+    omega_error: float | None = None
+    max_omega_error: float | None = None
+    energy_drift: float | None = None
+    momentum_drift: float | None = None
+    norm_drift: float | None = None
+    wall_time: float | None = None
+    steps_per_second: float | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    @classmethod
+    def failed(cls, dt, status, message, wall_time) -> "Run":
+        return cls(dt=dt, status=status, message=message, wall_time=wall_time)
+
+    def to_json(self) -> dict:
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "message"}
+        if not self.ok:
+            out["message"] = self.message
+        return out
+
+
+@dataclass
+class Check:
+    """One check of a study: ``kind`` (order, final-error, invariants, runs, agreement, expected-failure,
+    reference), the ``method`` it is about (None for the study as a whole), and what it measured."""
+
+    kind: str
+    passed: bool
+    method: str | None = None
+    value: float | None = None
+    limit: float | None = None
+    note: str = ""
+
+    @property
+    def name(self) -> str:
+        return f"{self.kind}:{self.method}" if self.method else self.kind
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "passed": bool(self.passed), "value": json_number(self.value),
+                "limit": json_number(self.limit), "note": self.note}
+
+
+@dataclass
+class MethodResult:
+    """One method of a study: its runs from coarse to fine, the observed order, and the verdict."""
+
+    name: str
+    engine: str
+    expected_order: int | None
+    runs: list = field(default_factory=list)
+    observed_order: float | None = None
+    order_note: str = ""
+    local_orders: list = field(default_factory=list)
+    verdict: str = "info"
+
+    @property
+    def status(self) -> str:
+        """``ok`` (every run), ``singular`` (a run reached a parametrization's singularity) or ``failed``."""
+        if all(r.ok for r in self.runs):
+            return "ok"
+        return "singular" if any(r.status == "singular" for r in self.runs) else "failed"
+
+    @property
+    def finest(self) -> Run | None:
+        """The finest-step run that completed, or None."""
+        ok = [r for r in self.runs if r.ok]
+        return min(ok, key=lambda r: r.dt) if ok else None
+
+    def to_json(self) -> dict:
+        return {"engine": self.engine, "expected_order": self.expected_order, "observed_order": self.observed_order,
+                "order_note": self.order_note, "local_orders": self.local_orders, "status": self.status,
+                "runs": [r.to_json() for r in self.runs], "verdict": self.verdict}
