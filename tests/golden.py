@@ -3,7 +3,7 @@ they change nothing (issue 9: "every number in today's report must not move").
 
 :func:`canonical` keeps what a report *says* (statuses, errors, drifts, orders, checks, verdicts) and drops
 what varies from run to run or machine to machine (times, speeds, versions, absolute paths, numbers inside
-prose). :func:`compare` checks a report against the copy (new keys may be added, none may go): text and statuses exactly; errors and drifts to
+prose); checks are keyed by name. :func:`compare` checks a report against the copy (new keys may be added, none may go): text and statuses exactly; errors and drifts to
 rtol 1e-9 and atol 1e-15 (round-off where arithmetic is reordered); observed orders to 1e-3 (an order is a
 log of error ratios, so 1e-15 on an error of 1e-12 moves it by about 1e-3).
 
@@ -34,6 +34,8 @@ def canonical(doc):
                 v = Path(v).name
             elif k in ("note", "order_note", "message") and isinstance(v, str):
                 v = _NUMBER.sub("#", v)
+            elif k == "checks" and isinstance(v, list):  # by name: a method added later adds checks, moves none
+                v = {c["name"]: c for c in v}
             out[k] = canonical(v)
         return out
     if isinstance(doc, list):

@@ -71,7 +71,7 @@ def run_bench(*, repeat: int = 3, batch: int = 10_000, quick: bool = False, prog
         integrate(method, GYRO_INERTIA, q0, w0, dt=dt, duration=0.01)  # compile outside the timing
         sec = _best(lambda: integrate(method, GYRO_INERTIA, q0, w0, dt=dt, duration=duration), repeat)
         add("xcheck", method, "gyroscope-nonsingular", 1, sec, nsteps)
-    for method in ("formulation-2", "lie-rkmk4"):
+    for method in ("formulation-2", "lie-rkmk4", "lie-cf4"):
         integrate(method, rax_I, rax_q0, rax_w0, dt=dt, duration=0.01, torque=torque)
         sec = _best(lambda: integrate(method, rax_I, rax_q0, rax_w0, dt=dt, duration=duration, torque=torque), repeat)
         add("xcheck", method, "rax1-orbit-field", 1, sec, nsteps)

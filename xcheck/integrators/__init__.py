@@ -21,6 +21,7 @@ from ..body import validate_inertia
 from ..fields import TorqueModel
 from ..trajectory import Trajectory, step_plan, time_grid
 from . import _kernels
+from .kernel_args import KernelArgs
 from .methods import METHODS, Method
 
 __all__ = ["integrate", "integrate_batch", "METHODS", "Method", "BatchResult", "SINGULAR_TOL"]
@@ -34,20 +35,22 @@ _twins: dict[str, object] = {}
 
 
 def _kernels_for(*, python: bool = False, batch: bool = False):
-    """The kernels for a run: compiled (single trajectories), the compiled "_inlined" twin (batches:
-    slower to compile, faster to run) or the interpreted "_python" twin (Python torque callables).
-    Twins are the same source file loaded under another module name (see :mod:`._kernels`)."""
-    if not python and not batch:
+    """The kernels for a run, the one place the variant is chosen: ``compiled`` (single trajectories),
+    ``inlined`` (batches: slower to compile, faster to run) or ``python`` (interpreted, for Python torque
+    callables). A variant other than the compiled module is the same source loaded under another module
+    name with ``VARIANT`` set before it runs (see :mod:`._kernels`)."""
+    variant = "python" if python else "inlined" if batch else "compiled"
+    if variant == "compiled":
         return _kernels
-    suffix = "_python" if python else "_inlined"
-    if suffix not in _twins:
-        name = _kernels.__name__ + suffix
+    if variant not in _twins:
+        name = f"{_kernels.__name__}_{variant}"
         spec = importlib.util.spec_from_file_location(name, _kernels.__file__)
         module = importlib.util.module_from_spec(spec)
+        module.VARIANT = variant
         sys.modules[name] = module
         spec.loader.exec_module(module)
-        _twins[suffix] = module
-    return _twins[suffix]
+        _twins[variant] = module
+    return _twins[variant]
 
 
 def _method(name) -> Method:
@@ -86,12 +89,14 @@ def _unit_quaternion(q0, name="q0"):
     return rot._unit_quat(_vector(q0, name, 4, " [w, x, y, z]"), name)
 
 
-def _kernel_args(info: Method, sequence: str):
+def _kernel_args(info: Method, sequence: str, *, dt, n, last_h, torque, save_every) -> KernelArgs:
     A, b, c = info.tableau.arrays()
     use_hat = info.dexp_A is not None
-    Ahat = np.array(info.dexp_A, dtype=float) if use_hat else A
-    axes = np.array(rot._check_seq(sequence), dtype=np.int64)
-    return A, b, c, Ahat, use_hat, axes
+    tk, P, T = torque
+    return KernelArgs(A=A, b=b, c=c, Ahat=np.array(info.dexp_A, dtype=float) if use_hat else A, use_hat=use_hat,
+                      dt=float(dt), n=int(n), last_h=float(last_h), tk=tk, tP=P, tT=T,
+                      axes=np.array(rot._check_seq(sequence), dtype=np.int64), sing_tol=SINGULAR_TOL,
+                      bjorck_tol=BJORCK_TOL, save_every=int(save_every))
 
 
 def _singular_message(info, sequence, y_last, t_stop):
@@ -145,13 +150,12 @@ def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, t
 
         return integrate_scipy_rk45(I, q0, omega0, t, torque, float(dt))
 
-    A, b, c, Ahat, use_hat, axes = _kernel_args(info, sequence)
     kern = _kernels_for(python=python)
     m = kern.STATE_SIZE[info.kernel]
     y0 = info.encode(q0, omega0, sequence)
-    out = np.empty((n + 1, kern.MAX_STATE))
-    args = (A, b, c, Ahat, use_hat, float(dt), n, float(last_h), tk, P, T, axes, SINGULAR_TOL, BJORCK_TOL, 1)
-    steps, status = kern.RUN[info.kernel](args, y0, I, np.linalg.inv(I), out)
+    out = np.empty((n + 1, m))
+    args = _kernel_args(info, sequence, dt=dt, n=n, last_h=last_h, torque=(tk, P, T), save_every=1)
+    steps, status = kern.run_one(info.kernel, args, y0, I, np.linalg.inv(I), out)
     y = out[: steps + 1, :m]
     q, omega, extras = info.decode(y, sequence)
     traj = Trajectory(t=t[: steps + 1], q=q, omega=omega, method=info.name, dt=float(dt), extras=extras)
@@ -207,18 +211,16 @@ def integrate_batch(method: str, inertia, q0, omega0, *, dt: float, duration: fl
     n, last_h = step_plan(dt, duration)
     rot._check_seq(sequence)
     tk, P, T, python = _resolve_torque(torque, duration)
-    A, b, c, Ahat, use_hat, axes = _kernel_args(info, sequence)
     kern = _kernels_for(python=python, batch=True)
     m = kern.STATE_SIZE[info.kernel]
     Y0 = np.ascontiguousarray(info.encode(q0, omega0, sequence))
     save_every = 1 if save == "all" else n
     rows = n + 1 if save == "all" else 2
-    out = np.empty((N, rows, kern.MAX_STATE))
+    out = np.empty((N, rows, m))
     steps_done = np.zeros(N, dtype=np.int64)
     status = np.zeros(N, dtype=np.int64)
-    args = (A, b, c, Ahat, use_hat, float(dt), n, float(last_h), tk, P, T, axes, SINGULAR_TOL, BJORCK_TOL,
-            save_every)
-    kern.BATCH[info.kernel](args, Y0, I, np.linalg.inv(I), out, steps_done, status)
+    args = _kernel_args(info, sequence, dt=dt, n=n, last_h=last_h, torque=(tk, P, T), save_every=save_every)
+    kern.run_many(info.kernel, args, Y0, I, np.linalg.inv(I), out, steps_done, status)
     y = out[:, :, :m].reshape(N * rows, m)
     q, omega, _ = info.decode(y, sequence)  # (sign continuity across trajectories is harmless)
     full_t = time_grid(n, float(dt), float(duration))

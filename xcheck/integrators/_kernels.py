@@ -1,32 +1,60 @@
-"""The integrators' hot loop: one stage-arithmetic function for every Butcher tableau, and each method's
-stage derivative written as the seed writes it.
+"""The integrators' hot loop: every integration scheme as one declaration, one stage loop for every Butcher
+tableau, and each scheme's stage derivative written as the seed writes it.
 
-This module is compiled by numba (``cache=True``: compiled once per user and release into the folder of
-:mod:`xcheck._jit`, then loaded in ~0.2 s) when the torque is one of xcheck's torque models
-(:mod:`xcheck.fields`, plain data). The same source is loaded two more times under other module names
-(:func:`xcheck.integrators._kernels_for`): ``..._kernels_inlined``, everything inlined for the batch path, and
-``..._kernels_python``, with ``jit`` the identity, which runs in the interpreter for an arbitrary Python torque
-callable: one code path per method, fast or general.
+A *scheme* (:class:`Scheme`, registered with :func:`declare`) is everything the kernels need to know about a
+method: its state layout (size, the first integrated component), its stage derivative, optional hooks before
+and after a step (chart changes, projections), the kind of step (the tableau stage loop, or the commutator-free
+step), the scratch space it uses, and how ``(q, omega)`` become its state and back (encode, decode).
+:data:`xcheck.integrators.METHODS` names the schemes and gives each its tableau, order and seed. Adding a method
+with a new state layout is its section below, ending in ``declare(...)``, one ``METHODS`` entry and the
+README's table; a method on an existing scheme with another tableau is one ``METHODS`` entry.
 
-State layouts (``y``, at most ``MAX_STATE`` floats; ``q`` is [w, x, y, z] body -> world, ``w`` the body rate):
+States (``y``; ``q`` is [w, x, y, z] body -> world, ``w`` the body rate):
 
-=========  ======================================  =============================================
-method     y                                       seed
-=========  ======================================  =============================================
-EULER      angles(3), w(3)                         seed 001 appendix A (any of the 12 sequences)
-F1         p(4), p'(4)                             seed 004 §2.3, eq. 150-157
-F2         p(4), w(3)                              seed 004 §2.4, eq. 158-163
-LIE        p_n(4), u(3), w(3)                      seed 004 §2.5, eq. 166-172 (u = 0 at each step)
-DCM        R(9, row-major), w(3)                   seed 000 eq. 1.7, §1.7.1
-GIBBS      q_ref(4), g(3), w(3)                    seed 000 §1.4.2 (chart re-centred when |g| > 1)
-ROTVEC     q_ref(4), phi(3), w(3)                  seed 000 §1.5.2 (chart re-centred when |phi| > pi)
-=========  ======================================  =============================================
+===========  ======================================  =============================================
+scheme       y                                       seed
+===========  ======================================  =============================================
+EULER        angles(3), w(3)                         seed 001 appendix A (any of the 12 sequences)
+F1           p(4), p'(4)                             seed 004 §2.3, eq. 150-157
+F2           p(4), w(3)                              seed 004 §2.4, eq. 158-163
+LIE          p_n(4), u(3), w(3)                      seed 004 §2.5, eq. 166-172 (u = 0 at each step)
+CF4          p_n(4), u(3) = 0, w(3)                  commutator-free Lie group method of order 4
+DCM          R(9, row-major), w(3)                   seed 000 eq. 1.7, §1.7.1
+GIBBS        q_ref(4), g(3), w(3)                    seed 000 §1.4.2 (chart re-centred when |g| > 1)
+ROTVEC       q_ref(4), phi(3), w(3)                  seed 000 §1.5.2 (chart re-centred when |phi| > pi)
+===========  ======================================  =============================================
+
+How it is fast: numba compiles it (``cache=True``: once per user and release, into the folder of
+:mod:`xcheck._jit`; then loaded in ~0.2 s). Each scheme has two entry points made from the registry
+(:func:`_entry_points`: ``run_<name>``, ``many_<name>``) in which the scheme is a compile-time constant and
+its step function is named, and the dispatchers (:func:`deriv`, the hooks) are overloads that keep only that
+scheme's code:
+each scheme compiles and is cached on its own. Kernel arguments are one named record (:class:`KernelArgs`),
+unpacked once per run; derivatives and hooks take plain arguments (a record passed into every call costs the
+reference counts of its arrays).
+
+Variants: :func:`xcheck.integrators._kernels_for` loads this same source under other module names with
+``VARIANT`` set before it runs: ``"compiled"`` (this module, single trajectories: helpers called),
+``"inlined"`` (the batch path: helpers and derivatives inlined, ~25 s instead of ~2 s to compile a scheme, for
+1.5-2.5x the speed) and ``"python"`` (``jit`` the identity: the same code interpreted, for a Python torque
+callable). One code path per method, fast or general.
 """
+
+from dataclasses import dataclass
 
 import numpy as np
 
-PYTHON_MODE = __name__.endswith("_python")
-INLINED = __name__.endswith("_inlined")
+from .. import rotations as rot
+from ..trajectory import continuous_quaternions
+from .kernel_args import KernelArgs  # noqa: F401  (the record every entry point takes)
+
+#: Which variant this module is: set by the loader before the module runs (``_kernels_for``); the module
+#: imported normally is the compiled one.
+VARIANT = globals().get("VARIANT", "compiled")
+if VARIANT not in ("compiled", "inlined", "python"):
+    raise ImportError(f"xcheck.integrators._kernels: unknown variant {VARIANT!r}")
+PYTHON_MODE = VARIANT == "python"
+INLINED = VARIANT == "inlined"
 
 if PYTHON_MODE:  # the interpreted twin: same code, Python torque callables
 
@@ -59,10 +87,9 @@ else:
     # numba's pedantic SSA check misfires on IR-inlined code ("variable ... is not in scope"); harmless
     warnings.filterwarnings("ignore", category=numba.core.errors.NumbaIRAssumptionWarning)
 
-    # The stage loop and `run` are always inlined into the per-method entry points at the end (that is
-    # what makes the method a compile-time constant). Helpers and stage derivatives are compiled once
-    # and called (quick to compile: the single-trajectory path) -- or, in the "_inlined" twin used by the
-    # batch path, inlined too: ~25 s instead of ~2 s to compile a method (once), for 1.5-2.5x the speed.
+    # The stage loop and `run` are always inlined into the entry points (where the scheme is a compile-time
+    # constant). Helpers and stage derivatives are compiled once and called (quick to compile: single
+    # trajectories) -- or, in the "inlined" variant used by the batch path, inlined too.
     _inline = "always" if INLINED else "never"
     jit = numba.njit(cache=True, error_model="numpy", inline=_inline)
     ijit = numba.njit(cache=True, error_model="numpy", inline="always")
@@ -76,15 +103,49 @@ else:
         torque_eval = fields.torque_eval
         torque_needs_attitude = fields.torque_needs_attitude
 
-EULER, F1, F2, LIE, DCM, GIBBS, ROTVEC = 0, 1, 2, 3, 4, 5, 6
-STATE_SIZE = (6, 8, 7, 10, 12, 10, 10)
-# the first integrated component: the reference quaternion of the local-chart methods is constant in a step
-FIRST = (0, 0, 0, 4, 0, 4, 4)
-MAX_STATE = 12
 OK, SINGULAR, NONFINITE = 0, 1, 2
 
 # so(3) coefficient series threshold [rad] (as in xcheck.rotations)
 SERIES_ANGLE = 0.1
+
+
+# ------------------------------------------------------------------------------------------------
+# the registry of schemes
+# ------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Scheme:
+    """One integration scheme (see the module docstring).
+
+    ``deriv(t, y, dy, ...) -> OK | SINGULAR`` writes the stage derivative of ``y`` into ``dy``; it names the
+    inputs it needs among :data:`DERIV_ARGS` (``yhat``: the stage values of the dexp argument, only the printed
+    algorithm 172 differs; ``tk, tP, tT`` the torque model; ``axes``, ``sing_tol`` for Euler angles; ``work``).
+    ``before_step`` and ``after_step`` (inputs among :data:`HOOK_ARGS`) change ``y`` between steps, exactly (the order
+    is unaffected); ``step`` is ``"rk"`` (:func:`rk_step`, any tableau) or ``"cf4"`` (:func:`cf4_step`);
+    ``first`` components of ``y`` are constant within a step (a reference quaternion); ``work`` floats of
+    scratch. ``encode(q0 (..., 4), w0 (..., 3), seq) -> y0 (..., size)`` and
+    ``decode(y (n, size), seq) -> (q, omega, extras)`` are plain Python."""
+
+    name: str
+    size: int
+    deriv: object
+    encode: object
+    decode: object
+    first: int = 0
+    before_step: object = None
+    after_step: object = None
+    step: str = "rk"
+    work: int = 0
+
+
+SCHEMES: list = []
+
+
+def declare(scheme: Scheme) -> int:
+    """Register ``scheme``; returns its id (the compile-time constant of the entry points)."""
+    if scheme.step not in ("rk", "cf4"):
+        raise ValueError(f"{scheme.name}: unknown step {scheme.step!r}")
+    SCHEMES.append(scheme)
+    return len(SCHEMES) - 1
 
 
 # ------------------------------------------------------------------------------------------------
@@ -259,8 +320,45 @@ def dcm_to_quat(R, out):
         out[i] /= n
 
 
+@jit
+def bjorck(R, tol, work):
+    """Björck-Bowie orthogonalisation of a row-major 3x3 ``R`` in place (seed 000 §1.7.1):
+    ``X <- 1.5 X - 0.5 X X^T X`` until ``|X^T X - I| <= tol`` (max-norm), at most 10 iterations."""
+    XtX, Y = work[0:9], work[9:18]
+    for _ in range(10):
+        err = 0.0
+        for i in range(3):
+            for j in range(3):
+                acc = 0.0
+                for k in range(3):
+                    acc += R[3 * k + i] * R[3 * k + j]
+                XtX[3 * i + j] = acc
+                d = acc - (1.0 if i == j else 0.0)
+                if abs(d) > err:
+                    err = abs(d)
+        if err <= tol:
+            return
+        for i in range(3):
+            for j in range(3):
+                acc = 0.0
+                for k in range(3):
+                    acc += R[3 * i + k] * XtX[3 * k + j]
+                Y[3 * i + j] = 1.5 * R[3 * i + j] - 0.5 * acc
+        for i in range(9):
+            R[i] = Y[i]
+
+
+@jit
+def gibbs_quat(g, out):
+    n = np.sqrt(1.0 + g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+    out[0] = 1.0 / n
+    out[1] = g[0] / n
+    out[2] = g[1] / n
+    out[3] = g[2] / n
+
+
 # ------------------------------------------------------------------------------------------------
-# stage derivatives, one per method
+# EULER: RK4 on Euler angles (seed 001 appendix A)
 # ------------------------------------------------------------------------------------------------
 @jit
 def deriv_euler(t, y, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work):
@@ -298,6 +396,21 @@ def deriv_euler(t, y, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work):
     return OK
 
 
+def _enc_euler(q0, w0, seq):
+    return np.concatenate([rot.quat_to_euler(q0, seq, warn=False), w0], axis=-1)
+
+
+def _dec_euler(y, seq):
+    angles = y[:, 0:3]
+    return continuous_quaternions(rot.euler_to_quat(angles, seq)), y[:, 3:6], {"euler": angles.copy()}
+
+
+EULER = declare(Scheme("euler", size=6, deriv=deriv_euler, encode=_enc_euler, decode=_dec_euler, work=26))
+
+
+# ------------------------------------------------------------------------------------------------
+# F1: seed 004 Formulation I (§2.3)
+# ------------------------------------------------------------------------------------------------
 @jit
 def deriv_formulation1(t, y, dy, I, Iinv, tk, tP, tT, work):
     """Seed 004 Formulation I: ``[2 I' G; p^T] p'' = [t' - 4 G G'^T I' G p'; -p'^T p']`` (eq. 154)
@@ -334,6 +447,34 @@ def deriv_formulation1(t, y, dy, I, Iinv, tk, tP, tT, work):
 
 
 @jit
+def project_formulation1(y):
+    """Seed 004 eq. 155-156: ``p <- p/|p|``, ``p' <- p' - (p'^T p) p``."""
+    n = np.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3])
+    for i in range(4):
+        y[i] /= n
+    d = y[0] * y[4] + y[1] * y[5] + y[2] * y[6] + y[3] * y[7]
+    for i in range(4):
+        y[4 + i] -= d * y[i]
+
+
+def _enc_f1(q0, w0, seq):
+    return np.concatenate([q0, rot.quat_rate(q0, w0)], axis=-1)  # p'0 = 1/2 G(p0)^T w0 (eq. 162)
+
+
+def _dec_f1(y, seq):
+    p, pd = y[:, 0:4], y[:, 4:8]
+    omega = 2 * rot.quat_mul(rot.quat_conj(p), pd)[:, 1:]  # w' = 2 G(p) p' (eq. 140)
+    return p.copy(), omega, {}
+
+
+F1 = declare(Scheme("formulation-1", size=8, deriv=deriv_formulation1, after_step=project_formulation1,
+                    encode=_enc_f1, decode=_dec_f1, work=26))
+
+
+# ------------------------------------------------------------------------------------------------
+# F2: seed 004 Formulation II (§2.4)
+# ------------------------------------------------------------------------------------------------
+@jit
 def deriv_formulation2(t, y, dy, I, Iinv, tk, tP, tT, work):
     """Seed 004 Formulation II: ``p' = 1/2 G(p)^T w'`` (eq. 162), ``w' = I'^-1 (t' - w' x I' w')`` (eq. 158)."""
     p = y[0:4]
@@ -348,11 +489,35 @@ def deriv_formulation2(t, y, dy, I, Iinv, tk, tP, tT, work):
 
 
 @jit
+def normalise_formulation2(y):
+    """Seed 004 algorithm 163: ``p_out = p_1out / sqrt(p_1out^T p_1out)``."""
+    n = np.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3])
+    for i in range(4):
+        y[i] /= n
+
+
+def _enc_f2(q0, w0, seq):
+    return np.concatenate([q0, w0], axis=-1)
+
+
+def _dec_f2(y, seq):
+    return y[:, 0:4].copy(), y[:, 4:7].copy(), {}
+
+
+F2 = declare(Scheme("formulation-2", size=7, deriv=deriv_formulation2, after_step=normalise_formulation2,
+                    encode=_enc_f2, decode=_dec_f2, work=3))
+
+
+# ------------------------------------------------------------------------------------------------
+# LIE: seed 004 §2.5, the Lie-group method on S3 with RK on so(3); CF4 on the same state
+# ------------------------------------------------------------------------------------------------
+@jit
 def deriv_lie(t, y, yhat, dy, I, Iinv, tk, tP, tT, work):
     """Seed 004 §2.5: ``u' = dexp^-1_{-u}(w)`` (eq. 166-167) on so(3), the attitude of a stage is
     ``p_n ∘ exp_S3(u)`` (eq. 170-171) and ``w' = f(p, w)``. ``yhat`` carries the u of the dexp argument:
     the same as ``y`` for RKMK4 (``lie-rkmk4``, order 4); the printed algorithm 172 uses 1/2 k1 in the
-    third stage (``lie-thesis-172``), which measures order 2 (see tableau.THESIS_172_DEXP_A)."""
+    third stage (``lie-thesis-172``), which measures order 2 (see tableau.THESIS_172_DEXP_A). At ``u = 0``
+    (every stage of CF4) ``u' = w`` and the stage's attitude is ``p_n`` itself, exactly."""
     u = y[4:7]
     w = y[7:10]
     dexpinv_minus(yhat[4:7], w, dy[4:7])
@@ -366,15 +531,43 @@ def deriv_lie(t, y, yhat, dy, I, Iinv, tk, tP, tT, work):
 
 
 @jit
+def lie_update(y, work):
+    """Seed 004 algorithm 172: ``p_out = p_0 ∘ exp_S3(u)``; the unit norm holds by construction."""
+    e = work[0:4]
+    quat_exp(y[4:7], e)
+    qmul(y[0:4], e, y[0:4])
+    y[4] = y[5] = y[6] = 0.0
+
+
+def _enc_local(q0, w0, seq):
+    """A local-chart state ``q_ref(4), v(3) = 0, w(3)``."""
+    return np.concatenate([q0, np.zeros_like(w0), w0], axis=-1)
+
+
+def _dec_lie(y, seq):
+    return y[:, 0:4].copy(), y[:, 7:10].copy(), {}
+
+
+LIE = declare(Scheme("lie", size=10, first=4, deriv=deriv_lie, after_step=lie_update, encode=_enc_local,
+                     decode=_dec_lie, work=11))
+#: The commutator-free method of order 4 (:func:`cf4_step`) on the LIE state: its stages all have u = 0.
+CF4 = declare(Scheme("lie-cf4", size=10, first=4, deriv=deriv_lie, step="cf4", encode=_enc_local,
+                     decode=_dec_lie, work=31))
+
+
+# ------------------------------------------------------------------------------------------------
+# DCM: RK4 on R' = R [w x] with Björck-Bowie (seed 000)
+# ------------------------------------------------------------------------------------------------
+@jit
 def deriv_dcm(t, y, dy, I, Iinv, tk, tP, tT, work):
     """``R' = R [w x]`` (seed 000 eq. 1.7 for the body -> world matrix; seed 004 eq. 131)."""
     R = y[0:9]
     w = y[9:12]
     for r in range(3):
-        a, b, c = R[3 * r], R[3 * r + 1], R[3 * r + 2]
-        dy[3 * r] = b * w[2] - c * w[1]
-        dy[3 * r + 1] = c * w[0] - a * w[2]
-        dy[3 * r + 2] = a * w[1] - b * w[0]
+        x0, x1, x2 = R[3 * r], R[3 * r + 1], R[3 * r + 2]
+        dy[3 * r] = x1 * w[2] - x2 * w[1]
+        dy[3 * r + 1] = x2 * w[0] - x0 * w[2]
+        dy[3 * r + 2] = x0 * w[1] - x1 * w[0]
     tau, q = work[0:3], work[3:7]
     if torque_needs_attitude(tk, tP):
         dcm_to_quat(R, q)
@@ -384,14 +577,28 @@ def deriv_dcm(t, y, dy, I, Iinv, tk, tP, tT, work):
 
 
 @jit
-def gibbs_quat(g, out):
-    n = np.sqrt(1.0 + g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
-    out[0] = 1.0 / n
-    out[1] = g[0] / n
-    out[2] = g[1] / n
-    out[3] = g[2] / n
+def orthonormalise_dcm(y, bjorck_tol, work):
+    bjorck(y[0:9], bjorck_tol, work)
 
 
+def _enc_dcm(q0, w0, seq):
+    R = rot.quat_to_dcm(q0)
+    return np.concatenate([R.reshape(R.shape[:-2] + (9,)), w0], axis=-1)
+
+
+def _dec_dcm(y, seq):
+    R = y[:, 0:9].reshape(-1, 3, 3)
+    ortho = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(axis=(-2, -1))
+    return continuous_quaternions(rot.dcm_to_quat(R)), y[:, 9:12].copy(), {"orthogonality": ortho}
+
+
+DCM = declare(Scheme("dcm", size=12, deriv=deriv_dcm, after_step=orthonormalise_dcm, encode=_enc_dcm,
+                     decode=_dec_dcm, work=18))
+
+
+# ------------------------------------------------------------------------------------------------
+# GIBBS and ROTVEC: global charts re-centred before their singularities (seed 000)
+# ------------------------------------------------------------------------------------------------
 @jit
 def deriv_gibbs(t, y, dy, I, Iinv, tk, tP, tT, work):
     """Gibbs-vector kinematics ``g' = 1/2 (I + [g x] + g g^T) w`` (seed 000 §1.4.2, with the skew-term sign
@@ -426,54 +633,6 @@ def deriv_rotvec(t, y, dy, I, Iinv, tk, tP, tT, work):
     return OK
 
 
-def deriv(method, t, y, yhat, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work):
-    """The stage derivative ``dy = f(t, y)`` of ``method``; returns OK or SINGULAR.
-
-    Compiled, ``method`` is a compile-time constant (each entry point below is one method), and the
-    overload registered after this function keeps only that method's branch: each method compiles
-    and optimises on its own."""
-    if method == EULER:
-        return deriv_euler(t, y, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work)
-    if method == F1:
-        return deriv_formulation1(t, y, dy, I, Iinv, tk, tP, tT, work)
-    if method == F2:
-        return deriv_formulation2(t, y, dy, I, Iinv, tk, tP, tT, work)
-    if method == LIE:
-        return deriv_lie(t, y, yhat, dy, I, Iinv, tk, tP, tT, work)
-    if method == DCM:
-        return deriv_dcm(t, y, dy, I, Iinv, tk, tP, tT, work)
-    if method == GIBBS:
-        return deriv_gibbs(t, y, dy, I, Iinv, tk, tP, tT, work)
-    return deriv_rotvec(t, y, dy, I, Iinv, tk, tP, tT, work)
-
-
-if not PYTHON_MODE:
-
-    @overload(deriv, inline="always")
-    def _deriv_for_method(method, t, y, yhat, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work):
-        if not isinstance(method, numba.types.IntegerLiteral):
-            return None  # numba then retries with the literal method
-        return {
-            EULER: lambda method, t, y, yhat, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work: deriv_euler(
-                t, y, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work),
-            F1: lambda method, t, y, yhat, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work: deriv_formulation1(
-                t, y, dy, I, Iinv, tk, tP, tT, work),
-            F2: lambda method, t, y, yhat, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work: deriv_formulation2(
-                t, y, dy, I, Iinv, tk, tP, tT, work),
-            LIE: lambda method, t, y, yhat, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work: deriv_lie(
-                t, y, yhat, dy, I, Iinv, tk, tP, tT, work),
-            DCM: lambda method, t, y, yhat, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work: deriv_dcm(
-                t, y, dy, I, Iinv, tk, tP, tT, work),
-            GIBBS: lambda method, t, y, yhat, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work: deriv_gibbs(
-                t, y, dy, I, Iinv, tk, tP, tT, work),
-            ROTVEC: lambda method, t, y, yhat, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work: deriv_rotvec(
-                t, y, dy, I, Iinv, tk, tP, tT, work),
-        }[method.literal_value]
-
-
-# ------------------------------------------------------------------------------------------------
-# before and after a step: chart changes and projections (exact between steps: orders unaffected)
-# ------------------------------------------------------------------------------------------------
 @jit
 def recentre(y, limit, to_quat, e):
     """Fold the local chart into the reference quaternion when its parameter exceeds ``limit``."""
@@ -497,128 +656,98 @@ def recentre_rotvec(y, work):
     recentre(y, np.pi, 1, work[0:4])  # dexp^-1 is singular at |phi| = 2 pi
 
 
-def before_step(method, y, work):
-    """Chart changes between steps (exact, so the order is unaffected)."""
-    if method == GIBBS:
-        recentre_gibbs(y, work)
-    elif method == ROTVEC:
-        recentre_rotvec(y, work)
+def _dec_local(to_quat):
+    """Decoder of a local-chart state ``q_ref(4), v(3), w(3)``: attitude ``q_ref ⊗ to_quat(v)``."""
+    def decode(y, seq):
+        q = rot.quat_mul(y[:, 0:4], to_quat(y[:, 4:7]))
+        return continuous_quaternions(q), y[:, 7:10].copy(), {}
+    return decode
 
 
-@jit
-def bjorck(R, tol, work):
-    """Björck-Bowie orthogonalisation of a row-major 3x3 ``R`` in place (seed 000 §1.7.1):
-    ``X <- 1.5 X - 0.5 X X^T X`` until ``|X^T X - I| <= tol`` (max-norm), at most 10 iterations."""
-    XtX, Y = work[0:9], work[9:18]
-    for _ in range(10):
-        err = 0.0
-        for i in range(3):
-            for j in range(3):
-                acc = 0.0
-                for k in range(3):
-                    acc += R[3 * k + i] * R[3 * k + j]
-                XtX[3 * i + j] = acc
-                d = acc - (1.0 if i == j else 0.0)
-                if abs(d) > err:
-                    err = abs(d)
-        if err <= tol:
-            return
-        for i in range(3):
-            for j in range(3):
-                acc = 0.0
-                for k in range(3):
-                    acc += R[3 * i + k] * XtX[3 * k + j]
-                Y[3 * i + j] = 1.5 * R[3 * i + j] - 0.5 * acc
-        for i in range(9):
-            R[i] = Y[i]
+GIBBS = declare(Scheme("gibbs", size=10, first=4, deriv=deriv_gibbs, before_step=recentre_gibbs,
+                       encode=_enc_local, decode=_dec_local(rot.gibbs_to_quat), work=11))
+ROTVEC = declare(Scheme("rotvec", size=10, first=4, deriv=deriv_rotvec, before_step=recentre_rotvec,
+                        encode=_enc_local, decode=_dec_local(rot.rotvec_to_quat), work=11))
+
+#: Derived from the registry (compile-time constants inside the kernels).
+STATE_SIZE = tuple(s.size for s in SCHEMES)
+FIRST = tuple(s.first for s in SCHEMES)
+WORK_SIZE = tuple(max(s.work, 1) for s in SCHEMES)
+MAX_STATE = max(STATE_SIZE)
 
 
-@jit
-def project_formulation1(y):
-    """Seed 004 eq. 155-156: ``p <- p/|p|``, ``p' <- p' - (p'^T p) p``."""
-    n = np.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3])
-    for i in range(4):
-        y[i] /= n
-    d = y[0] * y[4] + y[1] * y[5] + y[2] * y[6] + y[3] * y[7]
-    for i in range(4):
-        y[4 + i] -= d * y[i]
+# ------------------------------------------------------------------------------------------------
+# dispatch by scheme: plain Python for the interpreted variant; compiled, an overload keeps only the
+# scheme's own code (the scheme is a literal there)
+# ------------------------------------------------------------------------------------------------
+#: What a derivative and a hook may ask for, by parameter name: each takes the subset it needs, in any order,
+#: and :func:`_adapter` passes just that (fewer arguments per call is measurably faster on one trajectory).
+DERIV_ARGS = ("t", "y", "yhat", "dy", "I", "Iinv", "tk", "tP", "tT", "axes", "sing_tol", "work")
+HOOK_ARGS = ("y", "bjorck_tol", "work")
 
 
-@jit
-def normalise_formulation2(y):
-    """Seed 004 algorithm 163: ``p_out = p_1out / sqrt(p_1out^T p_1out)``."""
-    n = np.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3])
-    for i in range(4):
-        y[i] /= n
+def _adapter(f, offered):
+    """``lambda scheme, *offered: f(<the parameters f names>)``; None when ``f`` is None."""
+    import inspect
+
+    if f is None:
+        return eval(f"lambda scheme, {', '.join(offered)}: None")
+    names = list(inspect.signature(getattr(f, "py_func", f)).parameters)
+    unknown = [n for n in names if n not in offered]
+    if unknown:
+        raise TypeError(f"{f.__name__}: parameters {unknown} are not among {offered}")
+    return eval(f"lambda scheme, {', '.join(offered)}: f({', '.join(names)})", {"f": f})
 
 
-@jit
-def lie_update(y, work):
-    """Seed 004 algorithm 172: ``p_out = p_0 ∘ exp_S3(u)``; the unit norm holds by construction."""
-    e = work[0:4]
-    quat_exp(y[4:7], e)
-    qmul(y[0:4], e, y[0:4])
-    y[4] = y[5] = y[6] = 0.0
+def deriv(scheme, t, y, yhat, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work):
+    """The stage derivative of ``scheme``; returns OK or SINGULAR."""
+    return _DERIV[scheme](scheme, t, y, yhat, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work)
 
 
-@jit
-def orthonormalise_dcm(y, bjorck_tol, work):
-    bjorck(y[0:9], bjorck_tol, work)
+def before_step(scheme, y, bjorck_tol, work):
+    _BEFORE[scheme](scheme, y, bjorck_tol, work)
 
 
-def after_step(method, y, bjorck_tol, work):
-    """Projections after a step."""
-    if method == F1:
-        project_formulation1(y)
-    elif method == F2:
-        normalise_formulation2(y)
-    elif method == LIE:
-        lie_update(y, work)
-    elif method == DCM:
-        orthonormalise_dcm(y, bjorck_tol, work)
+def after_step(scheme, y, bjorck_tol, work):
+    _AFTER[scheme](scheme, y, bjorck_tol, work)
 
+
+_DERIV = [_adapter(sc.deriv, DERIV_ARGS) for sc in SCHEMES]
+_BEFORE = [_adapter(sc.before_step, HOOK_ARGS) for sc in SCHEMES]
+_AFTER = [_adapter(sc.after_step, HOOK_ARGS) for sc in SCHEMES]
 
 if not PYTHON_MODE:
 
+    def _literal(scheme):
+        return scheme.literal_value if isinstance(scheme, numba.types.IntegerLiteral) else None
+
+    # (numba retries with the literal scheme when an overload answers None)
+    @overload(deriv, inline="always")
+    def _deriv(scheme, t, y, yhat, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work):
+        return None if _literal(scheme) is None else _DERIV[_literal(scheme)]
+
     @overload(before_step, inline="always")
-    def _before_step_for_method(method, y, work):
-        if not isinstance(method, numba.types.IntegerLiteral):
-            return None
-        m = method.literal_value
-        if m == GIBBS:
-            return lambda method, y, work: recentre_gibbs(y, work)
-        if m == ROTVEC:
-            return lambda method, y, work: recentre_rotvec(y, work)
-        return lambda method, y, work: None
+    def _before_step(scheme, y, bjorck_tol, work):
+        return None if _literal(scheme) is None else _BEFORE[_literal(scheme)]
 
     @overload(after_step, inline="always")
-    def _after_step_for_method(method, y, bjorck_tol, work):
-        if not isinstance(method, numba.types.IntegerLiteral):
-            return None
-        m = method.literal_value
-        if m == F1:
-            return lambda method, y, bjorck_tol, work: project_formulation1(y)
-        if m == F2:
-            return lambda method, y, bjorck_tol, work: normalise_formulation2(y)
-        if m == LIE:
-            return lambda method, y, bjorck_tol, work: lie_update(y, work)
-        if m == DCM:
-            return lambda method, y, bjorck_tol, work: orthonormalise_dcm(y, bjorck_tol, work)
-        return lambda method, y, bjorck_tol, work: None
+    def _after_step(scheme, y, bjorck_tol, work):
+        return None if _literal(scheme) is None else _AFTER[_literal(scheme)]
 
 
 # ------------------------------------------------------------------------------------------------
-# the stage arithmetic for every tableau, and the loops
+# the steps: the stage arithmetic for every tableau, and the commutator-free step
 # ------------------------------------------------------------------------------------------------
 @ijit
-def rk_step(method, A, b, c, Ahat, use_hat, t, y, h, m, K, Y, Yhat, I, Iinv, tk, tP, tT, axes, sing_tol, work):
+def rk_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, tP, tT, axes, sing_tol, work):
     """One explicit Runge-Kutta step ``y <- y + h sum_i b_i K_i`` with ``K_i = f(t + c_i h, y + h sum_j A_ij K_j)``.
 
     ``Ahat`` (used when ``use_hat``) gives a second set of stage values passed to the derivative as
     ``yhat``: only the printed Lie algorithm 172 needs it. ``y`` is left unchanged if a stage fails.
     """
     s = b.shape[0]
-    first = FIRST[method]
+    m = STATE_SIZE[scheme]
+    first = FIRST[scheme]
     for l in range(first):  # constant in the step (a reference quaternion)
         Y[l] = y[l]
         Yhat[l] = y[l]
@@ -634,9 +763,9 @@ def rk_step(method, A, b, c, Ahat, use_hat, t, y, h, m, K, Y, Yhat, I, Iinv, tk,
                 for j in range(i):
                     acc += Ahat[i, j] * K[j, l]
                 Yhat[l] = y[l] + h * acc
-            status = deriv(method, t + c[i] * h, Y, Yhat, K[i], I, Iinv, tk, tP, tT, axes, sing_tol, work)
+            status = deriv(scheme, t + c[i] * h, Y, Yhat, K[i], I, Iinv, tk, tP, tT, axes, sing_tol, work)
         else:
-            status = deriv(method, t + c[i] * h, Y, Y, K[i], I, Iinv, tk, tP, tT, axes, sing_tol, work)
+            status = deriv(scheme, t + c[i] * h, Y, Y, K[i], I, Iinv, tk, tP, tT, axes, sing_tol, work)
         if status != OK:
             return status
     for l in range(first, m):
@@ -647,34 +776,96 @@ def rk_step(method, A, b, c, Ahat, use_hat, t, y, h, m, K, Y, Yhat, I, Iinv, tk,
     return OK
 
 
-@ijit
-def run(method, args, y0, I, Iinv, out):
-    """Integrate ``n`` steps (the last of length ``last_h``) from ``y0``; store ``y`` every ``save_every``
-    steps and at the end into ``out`` (row 0 = ``y0``). Returns (steps done, status): on a singular or
-    non-finite step the loop stops, and ``out``'s remaining rows hold the last good state.
+#: CF4's coefficients (Celledoni, Marthinsen and Owren 2003, eq. 16), for body rates acting on the right:
+#: stage i's attitude is ``base_i ∘ exp(h sum_j CF4_ALPHA[i, j] k_j)`` with ``base`` p_n, except stage 4, whose
+#: base is stage 2's attitude; the step ends with ``p_n ∘ exp(h sum CF4_BETA[0] k) ∘ exp(h sum CF4_BETA[1] k)``.
+#: The rates w follow the classical RK4 (the tableau's A and b).
+CF4_ALPHA = np.array([[0.0, 0.0, 0.0, 0.0], [0.5, 0.0, 0.0, 0.0], [0.0, 0.5, 0.0, 0.0], [-0.5, 0.0, 1.0, 0.0]])
+CF4_BETA = np.array([[3.0, 2.0, 2.0, -1.0], [-1.0, 2.0, 2.0, 3.0]]) / 12.0
 
-    ``args = (A, b, c, Ahat, use_hat, dt, n, last_h, tk, tP, tT, axes, sing_tol, bjorck_tol, save_every)``.
-    """
-    A, b, c, Ahat, use_hat, dt, n, last_h, tk, tP, tT, axes, sing_tol, bjorck_tol, save_every = args
-    m = STATE_SIZE[method]
-    s = b.shape[0]
-    K = np.zeros((s, m))
+
+@ijit
+def cf4_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, tP, tT, axes, sing_tol, work):
+    """The commutator-free Lie group method of order 4 (Celledoni, Marthinsen and Owren 2003, their CF4) for
+    ``p' = p ∘ w`` (body rates act on the right) and Euler's equation, on the LIE state. With ``k_i`` the
+    body rate and ``F_i`` the rate derivative of stage i::
+
+        p2 = p ∘ exp(h/2 k1)             w2 = w + h/2 F1
+        p3 = p ∘ exp(h/2 k2)             w3 = w + h/2 F2
+        p4 = p2 ∘ exp(h k3 - h/2 k1)     w4 = w + h F3
+        p <- p ∘ exp(h/12 (3 k1 + 2 k2 + 2 k3 - k4)) ∘ exp(h/12 (-k1 + 2 k2 + 2 k3 + 3 k4))
+        w <- w + h/6 (F1 + 2 F2 + 2 F3 + F4)
+
+    (:data:`CF4_ALPHA`, :data:`CF4_BETA`). No dexp^-1 is needed, each stage's attitude is a unit quaternion
+    by construction, and w follows the classical RK4. The stage derivative is LIE's at u = 0:
+    ``K[i, 4:7] = k_i``, ``K[i, 7:10] = F_i``."""
+    v, e, p2 = work[20:23], work[23:27], work[27:31]
+    Y[4] = Y[5] = Y[6] = 0.0
+    for i in range(4):
+        for l in range(3):
+            acc_v = 0.0
+            acc_w = 0.0
+            for j in range(i):
+                acc_v += CF4_ALPHA[i, j] * K[j, 4 + l]
+                acc_w += A[i, j] * K[j, 7 + l]
+            v[l] = h * acc_v
+            Y[7 + l] = y[7 + l] + h * acc_w
+        quat_exp(v, e)
+        if i == 3:
+            qmul(p2, e, Y[0:4])
+        else:
+            qmul(y[0:4], e, Y[0:4])
+        if i == 1:
+            for l in range(4):
+                p2[l] = Y[l]
+        status = deriv(scheme, t + c[i] * h, Y, Y, K[i], I, Iinv, tk, tP, tT, axes, sing_tol, work)
+        if status != OK:
+            return status
+    for r in range(2):
+        for l in range(3):
+            acc = 0.0
+            for j in range(4):
+                acc += CF4_BETA[r, j] * K[j, 4 + l]
+            v[l] = h * acc
+        quat_exp(v, e)
+        qmul(y[0:4], e, y[0:4])
+    for l in range(3):
+        acc = 0.0
+        for j in range(4):
+            acc += b[j] * K[j, 7 + l]
+        y[7 + l] += h * acc
+    return OK
+
+
+# ------------------------------------------------------------------------------------------------
+# the loops and the two entry points
+# ------------------------------------------------------------------------------------------------
+@ijit
+def run(scheme, step_fn, a, y0, I, Iinv, out):
+    """Integrate ``a.n`` steps with ``step_fn`` (:func:`rk_step` or :func:`cf4_step`) (the last of length ``a.last_h``) from ``y0``; store ``y`` every ``a.save_every``
+    steps and at the end into ``out`` (row 0 = ``y0``). Returns (steps done, status): on a singular or
+    non-finite step the loop stops, and ``out``'s remaining rows hold the last good state."""
+    m = STATE_SIZE[scheme]
+    K = np.zeros((max(a.b.shape[0], 4), m))  # CF4 has 4 stages whatever the tableau
     Y = np.zeros(m)
     Yhat = np.zeros(m)
-    work = np.zeros(32)
+    work = np.zeros(WORK_SIZE[scheme])
     y = y0[:m].copy()
     y_prev = y.copy()
     out[0, :m] = y
     row = 1
+    n, dt, last_h, save_every, bjorck_tol = a.n, a.dt, a.last_h, a.save_every, a.bjorck_tol
+    A, b, c, Ahat, use_hat = a.A, a.b, a.c, a.Ahat, a.use_hat  # unpacked once: per step, each array costs
+    tk, tP, tT, axes, sing_tol = a.tk, a.tP, a.tT, a.axes, a.sing_tol  # its reference count (~5 %)
     for step in range(n):
         h = dt if step < n - 1 else last_h
         t = step * dt
-        before_step(method, y, work)
+        before_step(scheme, y, bjorck_tol, work)
         y_prev[:] = y
-        status = rk_step(method, A, b, c, Ahat, use_hat, t, y, h, m, K, Y, Yhat, I, Iinv, tk, tP, tT, axes,
-                         sing_tol, work)
+        status = step_fn(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, tP, tT, axes, sing_tol,
+                         work)
         if status == OK:
-            after_step(method, y, bjorck_tol, work)
+            after_step(scheme, y, bjorck_tol, work)
             for l in range(m):
                 if not np.isfinite(y[l]):
                     status = NONFINITE
@@ -689,88 +880,33 @@ def run(method, args, y0, I, Iinv, out):
     return n, OK
 
 
-@ijit
-def run_batch(method, args, Y0, I, Iinv, out, steps_done, status):
+def _entry_points(scheme: int):
+    """The two compiled entry points of ``scheme``, made from the registry: ``run_<name>(a, y0, I, Iinv, out)``
+    and ``many_<name>(a, Y0, I, Iinv, out, steps_done, status)``, with the scheme a literal constant and its
+    step function named in their source (an overload choosing the step doubled the batch compile time). They are compiled from text under this file's name so that numba caches them like functions written
+    out here (a closure would miss the cache on every run, and ``numba.literally`` re-types every call: 67 ms)."""
+    ident = SCHEMES[scheme].name.replace("-", "_")
+    step = {"rk": "rk_step", "cf4": "cf4_step"}[SCHEMES[scheme].step]
+    source = (f"def run_{ident}(a, y0, I, Iinv, out):\n"
+              f"    return run({scheme}, {step}, a, y0, I, Iinv, out)\n"
+              f"def many_{ident}(a, Y0, I, Iinv, out, steps_done, status):\n"
+              f"    for k in prange(Y0.shape[0]):\n"
+              f"        nd, st = run({scheme}, {step}, a, Y0[k], I[k], Iinv[k], out[k])\n"
+              f"        steps_done[k] = nd\n"
+              f"        status[k] = st\n")
+    namespace = {}
+    exec(compile(source, __file__, "exec"), globals(), namespace)
+    return loop_jit(namespace[f"run_{ident}"]), pjit(namespace[f"many_{ident}"])
+
+
+RUN_ONE, RUN_MANY = (tuple(t) for t in zip(*(_entry_points(k) for k in range(len(SCHEMES)))))
+
+
+def run_one(scheme, a, y0, I, Iinv, out):
+    """One trajectory of ``scheme`` (:func:`run`): (steps done, status)."""
+    return RUN_ONE[scheme](a, y0, I, Iinv, out)
+
+
+def run_many(scheme, a, Y0, I, Iinv, out, steps_done, status):
     """:func:`run` for each row of ``Y0`` (N, m), in parallel threads; ``I``, ``Iinv`` are (N, 3, 3)."""
-    for k in prange(Y0.shape[0]):
-        nd, st = run(method, args, Y0[k], I[k], Iinv[k], out[k])
-        steps_done[k] = nd
-        status[k] = st
-
-
-# ------------------------------------------------------------------------------------------------
-# entry points, one per method and path: the method is a constant, so each compiles (lazily, once, then
-# cached) with only its own stage derivative, optimised for it
-# ------------------------------------------------------------------------------------------------
-@loop_jit
-def run_euler(args, y0, I, Iinv, out):
-    return run(EULER, args, y0, I, Iinv, out)
-
-
-@loop_jit
-def run_f1(args, y0, I, Iinv, out):
-    return run(F1, args, y0, I, Iinv, out)
-
-
-@loop_jit
-def run_f2(args, y0, I, Iinv, out):
-    return run(F2, args, y0, I, Iinv, out)
-
-
-@loop_jit
-def run_lie(args, y0, I, Iinv, out):
-    return run(LIE, args, y0, I, Iinv, out)
-
-
-@loop_jit
-def run_dcm(args, y0, I, Iinv, out):
-    return run(DCM, args, y0, I, Iinv, out)
-
-
-@loop_jit
-def run_gibbs(args, y0, I, Iinv, out):
-    return run(GIBBS, args, y0, I, Iinv, out)
-
-
-@loop_jit
-def run_rotvec(args, y0, I, Iinv, out):
-    return run(ROTVEC, args, y0, I, Iinv, out)
-
-
-@pjit
-def batch_euler(args, Y0, I, Iinv, out, steps_done, status):
-    run_batch(EULER, args, Y0, I, Iinv, out, steps_done, status)
-
-
-@pjit
-def batch_f1(args, Y0, I, Iinv, out, steps_done, status):
-    run_batch(F1, args, Y0, I, Iinv, out, steps_done, status)
-
-
-@pjit
-def batch_f2(args, Y0, I, Iinv, out, steps_done, status):
-    run_batch(F2, args, Y0, I, Iinv, out, steps_done, status)
-
-
-@pjit
-def batch_lie(args, Y0, I, Iinv, out, steps_done, status):
-    run_batch(LIE, args, Y0, I, Iinv, out, steps_done, status)
-
-
-@pjit
-def batch_dcm(args, Y0, I, Iinv, out, steps_done, status):
-    run_batch(DCM, args, Y0, I, Iinv, out, steps_done, status)
-
-
-@pjit
-def batch_gibbs(args, Y0, I, Iinv, out, steps_done, status):
-    run_batch(GIBBS, args, Y0, I, Iinv, out, steps_done, status)
-
-
-@pjit
-def batch_rotvec(args, Y0, I, Iinv, out, steps_done, status):
-    run_batch(ROTVEC, args, Y0, I, Iinv, out, steps_done, status)
-
-
-RUN = (run_euler, run_f1, run_f2, run_lie, run_dcm, run_gibbs, run_rotvec)
-BATCH = (batch_euler, batch_f1, batch_f2, batch_lie, batch_dcm, batch_gibbs, batch_rotvec)
+    RUN_MANY[scheme](a, Y0, I, Iinv, out, steps_done, status)
