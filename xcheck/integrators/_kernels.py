@@ -40,6 +40,7 @@ Variants: :func:`xcheck.integrators._kernels_for` loads this same source under o
 callable). One code path per method, fast or general.
 """
 
+import inspect
 from dataclasses import dataclass
 
 import numpy as np
@@ -687,9 +688,8 @@ HOOK_ARGS = ("y", "bjorck_tol", "work")
 
 
 def _adapter(f, offered):
-    """``lambda scheme, *offered: f(<the parameters f names>)``; None when ``f`` is None."""
-    import inspect
-
+    """``lambda scheme, *offered: f(<the parameters f names>)``, or a lambda that does nothing when ``f`` is
+    None (a scheme without that hook)."""
     if f is None:
         return eval(f"lambda scheme, {', '.join(offered)}: None")
     names = list(inspect.signature(getattr(f, "py_func", f)).parameters)
