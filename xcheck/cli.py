@@ -15,6 +15,7 @@ import sys
 import threading
 import time
 import warnings
+from contextlib import nullcontext
 from pathlib import Path
 
 from . import __version__
@@ -236,7 +237,7 @@ def _plot_run(path, title, traj, err):
 
 
 def _cmd_report(args) -> int:
-    from .pool import make_pool, stop_pool
+    from .pool import worker_pool
     from .report.io import check_output_dir
     from .report.render import write_report
     from .scenario import bundled_scenarios, resolve_scenario
@@ -253,8 +254,8 @@ def _cmd_report(args) -> int:
     check_output_dir(args.out, "--out")
     t0 = time.perf_counter()
     progress = Progress()
-    pool = make_pool(args.workers) if args.workers != 1 else None  # --workers 1: all in this process
-    try:
+    # --workers 1: everything in this process; otherwise one pool for the studies and the figures
+    with worker_pool(args.workers) if args.workers != 1 else nullcontext() as pool:
         studies = run_studies(scenarios, quick=args.quick, progress=progress, pool=pool, workers=args.workers)
         rows = throughput_rows(studies)
         if args.bench:
@@ -264,12 +265,6 @@ def _cmd_report(args) -> int:
         folder = write_report(studies, args.out, throughput=rows, wall_time=time.perf_counter() - t0,
                               quick=args.quick, pool=pool)
         args.written = folder  # an interrupt from here on must not say "no report was written"
-    except BaseException:
-        if pool is not None:
-            stop_pool(pool)
-        raise
-    if pool is not None:
-        pool.shutdown(wait=True)
     for st in studies:
         _print_study(st)
     passed = all(st.passed for st in studies)

@@ -16,8 +16,9 @@ import sys
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
 
-__all__ = ["make_pool", "stop_pool"]
+__all__ = ["make_pool", "stop_pool", "worker_pool"]
 
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
@@ -63,3 +64,16 @@ def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 2.0) -> None:
         if p.is_alive():
             p.kill()
             p.join(1.0)
+
+
+@contextmanager
+def worker_pool(workers: int | None = None):
+    """:func:`make_pool` for the length of a block: shut down (waiting for the workers) when the block
+    completes, stopped at once (:func:`stop_pool`) when it raises or is interrupted."""
+    pool = make_pool(workers)
+    try:
+        yield pool
+    except BaseException:
+        stop_pool(pool)
+        raise
+    pool.shutdown(wait=True)

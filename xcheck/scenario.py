@@ -201,8 +201,9 @@ def load_scenario(path) -> Scenario:
         if key not in _TOP_KEYS:
             top.fail(key, f"unknown key (expected one of: {', '.join(_TOP_KEYS)})")
     name = top.get("name", "string", required=True)
-    if check_name(name):
-        top.fail("name", check_name(name))
+    bad_name = check_name(name)
+    if bad_name:
+        top.fail("name", bad_name)
     description = top.get("description", "string", "")
     model = top.path_("model", required=True)
     duration = top.positive("duration", required=True)

@@ -13,7 +13,7 @@ import numpy as np
 
 from . import rotations as rot
 from .metrics import ORDER_FLOOR, errors_against, invariant_drift, observed_order
-from .pool import make_pool, stop_pool
+from .pool import worker_pool
 from .reference import ReferenceFailure, dop853_solution, exact_torque_free
 from .results import Check, MethodResult, Run
 from .runners import RUNNERS, RunContext
@@ -120,21 +120,16 @@ def _map(fn, tasks, *, workers, progress, pool, labels):
             if progress:
                 progress(i + 1, total, labels[i])
         return out
-    own = pool is None
-    pool = pool or make_pool(workers)
-    try:
-        futures = {pool.submit(fn, *task): i for i, task in enumerate(tasks)}
-        out = [None] * total
-        for done, fut in enumerate(as_completed(futures), start=1):
-            i = futures[fut]
-            out[i] = fut.result()
-            if progress:
-                progress(done, total, labels[i])
-    except BaseException:
-        stop_pool(pool)
-        raise
-    if own:
-        pool.shutdown(wait=True)
+    if pool is None:
+        with worker_pool(workers) as own:
+            return _map(fn, tasks, workers=workers, progress=progress, pool=own, labels=labels)
+    futures = {pool.submit(fn, *task): i for i, task in enumerate(tasks)}
+    out = [None] * total
+    for done, fut in enumerate(as_completed(futures), start=1):
+        i = futures[fut]
+        out[i] = fut.result()
+        if progress:
+            progress(done, total, labels[i])
     return out
 
 

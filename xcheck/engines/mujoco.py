@@ -30,7 +30,7 @@ from ..fields import TorqueModel, torque_eval
 from ..models import MJCFBody, load_mujoco
 from ..trajectory import Trajectory, continuous_quaternions, step_plan, time_grid
 
-__all__ = ["simulate", "control_callback", "mujoco_warnings", "INTEGRATORS", "mujoco_version"]
+__all__ = ["simulate", "control_callback", "mujoco_warnings", "INTEGRATORS"]
 
 INTEGRATORS = {
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
@@ -38,10 +38,6 @@ INTEGRATORS = {
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
     "rk4": mujoco.mjtIntegrator.mjINT_RK4,
 }
-
-
-def mujoco_version() -> str:
-    return mujoco.__version__
 
 
 @contextmanager

@@ -29,7 +29,8 @@ How it is fast: numba compiles it (``cache=True``: once per user and release, in
 (:func:`_entry_points`: ``run_<name>``, ``many_<name>``) in which the scheme is a compile-time constant and
 its step function is named, and the dispatchers (:func:`deriv`, the hooks) are overloads that keep only that
 scheme's code:
-each scheme compiles and is cached on its own. Kernel arguments are one named record (:class:`KernelArgs`),
+each scheme compiles and is cached on its own. Kernel arguments are one named record
+(:class:`~xcheck.integrators.kernel_args.KernelArgs`),
 unpacked once per run; derivatives and hooks take plain arguments (a record passed into every call costs the
 reference counts of its arrays).
 
@@ -47,7 +48,6 @@ import numpy as np
 
 from .. import rotations as rot
 from ..trajectory import continuous_quaternions
-from .kernel_args import KernelArgs  # noqa: F401  (the record every entry point takes)
 
 #: Which variant this module is: set by the loader before the module runs (``_kernels_for``); the module
 #: imported normally is the compiled one.
@@ -674,7 +674,6 @@ ROTVEC = declare(Scheme("rotvec", size=10, first=4, deriv=deriv_rotvec, before_s
 STATE_SIZE = tuple(s.size for s in SCHEMES)
 FIRST = tuple(s.first for s in SCHEMES)
 WORK_SIZE = tuple(max(s.work, 1) for s in SCHEMES)
-MAX_STATE = max(STATE_SIZE)
 
 
 # ------------------------------------------------------------------------------------------------
