@@ -128,6 +128,38 @@ def test_golden_comparison_sees_a_changed_number():
     assert len(compare(changed, want)) == 2 and compare(want, want) == []
 
 
+def test_golden_comparison_allows_blas_round_off_and_nothing_more():
+    """Through BLAS (the dop853 reference, scipy-rk45) numbers may move within the study's floor; a move beyond
+    it, a changed verdict, or an order lost while the floor stayed put is a difference."""
+    from golden import GOLDEN, compare
+
+    want = json.loads(GOLDEN.read_text())
+    by = {s["scenario"]: i for i, s in enumerate(want["scenarios"])}
+    i = by["rax1-orbit-field"]
+    assert want["scenarios"][i]["reference"] == "dop853"
+    floor = want["scenarios"][i]["order_floor"]
+
+    def changed(edit):
+        doc = json.loads(GOLDEN.read_text())
+        edit(doc["scenarios"][i])
+        return compare(doc, want)
+
+    def shift(scenario, amount):
+        scenario["methods"]["lie-rkmk4"]["runs"][-1]["attitude_error"] += amount
+
+    assert changed(lambda s: shift(s, 0.5 * floor)) == []
+    assert len(changed(lambda s: shift(s, 3 * floor))) == 1
+    assert len(changed(lambda s: s["methods"]["lie-rkmk4"].update(verdict="FAIL"))) == 1
+    assert len(changed(lambda s: s["methods"]["lie-rkmk4"].update(observed_order=None))) == 1
+    assert len(changed(lambda s: s["methods"]["lie-rkmk4"].update(
+        observed_order=s["methods"]["lie-rkmk4"]["observed_order"] + 0.1))) == 1
+    # the same edit in a scenario with an exact reference is a difference even at 1e-13 rad
+    j = by["gyroscope-nonsingular"]
+    doc = json.loads(GOLDEN.read_text())
+    doc["scenarios"][j]["methods"]["lie-rkmk4"]["runs"][-1]["attitude_error"] += 1e-13
+    assert len(compare(doc, want)) == 1
+
+
 class _Collector(HTMLParser):
     def __init__(self):
         super().__init__()

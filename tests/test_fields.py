@@ -120,3 +120,77 @@ def test_table_header_and_comments_are_skipped(tmp_path):
 def test_bad_orbit_parameters(kwargs, match):
     with pytest.raises(ValueError, match=match):
         OrbitDipoleField(**kwargs)
+
+
+# ------------------------------------------------------------------------------------------------
+# one declaration per field model (issue 9)
+# ------------------------------------------------------------------------------------------------
+def _instances():
+    from xcheck.fields import FIELDS
+
+    table = rax1_synthetic_body_table()
+    made = {"body-table": BodyFieldTable(table), "world-table": WorldFieldTable(table),
+            "orbit-dipole": OrbitDipoleField(), "uniform": UniformField([20.0, -10.0, 15.0])}
+    assert set(made) | {"igrf"} == set(FIELDS)  # a new field must be added here too
+    return made
+
+
+def test_every_field_declares_its_slots_keys_and_frame():
+    """Truth: each declaration. The packed parameters are evaluator, frame, then exactly the declared slots;
+    the compiled kernel's attitude answer is the declaration's frame."""
+    from xcheck.fields import FIELDS, kernel, torque_needs_attitude
+
+    for name, field in _instances().items():
+        assert FIELDS[name] is type(field) and field.name == name
+        assert list(field.slot_values()) == list(field.slots)
+        P = MagneticTorque(M_P, field).P
+        assert P[kernel.EVALUATOR] == field.evaluator and len(P) == kernel.FIELD + len(field.slots)
+        assert bool(torque_needs_attitude(kernel.MAGNETIC, P)) == field.attitude_dependent == (field.frame == "world")
+        assert set(field.keys) <= set(FIELDS[name].keys) and all(k.kind in ("number", "vector3", "string", "path")
+                                                                 for k in field.keys.values())
+
+
+def test_a_field_added_by_its_declaration_and_registry_entry_alone(tmp_path, monkeypatch):
+    """Adding a field = its class + one FIELDS entry: the scenario reader, the torque builder and the messages
+    pick it up. Here a constant field in BODY components (the existing constant evaluator, frame "body"):
+    with the identity attitude it must give the same torque as the uniform world field, and unlike it the
+    torque must not depend on attitude."""
+    from xcheck import fields, scenario
+    from xcheck.fields import Field, Key, kernel
+
+    class BodyUniformField(Field):
+        name = "body-uniform"
+        keys = {"H_body": Key("vector3", required=True)}
+        slots = ("Hx", "Hy", "Hz")
+        frame = "body"
+        evaluator = kernel.CONSTANT_FIELD
+
+        def __init__(self, H_body):
+            self.H = np.asarray(H_body, float)
+
+        def slot_values(self):
+            return dict(zip(self.slots, self.H.tolist()))
+
+    monkeypatch.setitem(fields.FIELDS, "body-uniform", BodyUniformField)
+    model = BUNDLED_MODELS / "rax1.xml"
+    path = tmp_path / "s.toml"
+    path.write_text(f'name = "s"\nmodel = "{model}"\nduration = 1.0\n[initial]\nquaternion = [1, 0, 0, 0]\n'
+                    'angular_velocity = [0.1, 0, 0]\n[torque]\nkind = "magnetic"\nfield = "body-uniform"\n'
+                    'H_body = [20.0, -10.0, 15.0]\n[study]\nreference = "dop853"\n')
+    s = scenario.load_scenario(path)
+    assert s.torque == {"kind": "magnetic", "field": "body-uniform", "H_body": [20.0, -10.0, 15.0]}
+    from xcheck.models import load_body
+
+    torque = scenario.build_torque(s, load_body(model))
+    world = MagneticTorque(torque.dipole, UniformField([20.0, -10.0, 15.0]))
+    np.testing.assert_array_equal(torque(0.0, [1.0, 0, 0, 0], np.zeros(3)), world(0.0, [1.0, 0, 0, 0], np.zeros(3)))
+    q = rot.quat_normalize([0.3, 0.5, -0.2, 0.7])
+    np.testing.assert_array_equal(torque(0.0, q, np.zeros(3)), torque(0.0, [1.0, 0, 0, 0], np.zeros(3)))
+    assert not torque.attitude_dependent and world.attitude_dependent
+    # its required key is enforced, and the list of fields in messages includes it
+    path.write_text(path.read_text().replace("H_body = [20.0, -10.0, 15.0]\n", ""))
+    with pytest.raises(scenario.ScenarioError, match=r"\[torque\] H_body: missing"):
+        scenario.load_scenario(path)
+    path.write_text(path.read_text().replace('"body-uniform"', '"nonesuch"'))
+    with pytest.raises(scenario.ScenarioError, match=r"\[torque\] field: expected one of .*'body-uniform'"):
+        scenario.load_scenario(path)

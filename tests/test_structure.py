@@ -92,3 +92,14 @@ def test_core_imports_no_engine_and_no_plotting(room):
     for path in files:
         bad = {i for i in imports(path) if i.split(".")[0] in ("mujoco", "matplotlib")}
         assert not bad, f"{path.relative_to(PACKAGE)} imports {sorted(bad)}"
+
+
+def test_every_subpackage_is_in_the_wheel():
+    """A folder of xcheck missing from pyproject's ``packages`` works in a checkout and is absent from an
+    installed copy (README line 1 installs one)."""
+    import tomllib
+
+    listed = set(tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {"xcheck." + ".".join(p.parent.relative_to(PACKAGE).parts) if p.parent != PACKAGE else "xcheck"
+             for p in PACKAGE.rglob("__init__.py") if "bundled" not in p.parts}
+    assert found <= listed, sorted(found - listed)

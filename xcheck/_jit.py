@@ -9,7 +9,7 @@ compiled with ``cache=True`` is therefore cached in a per-user folder instead:
     then ``numba-<xcheck version>-<hash of the compiled sources>/<the source's folder in the package>``.
 
 The hash covers every compiled source file (:data:`COMPILED_SOURCES`) together, because the kernels compile
-the torque code of ``fields.py`` into themselves and numba checks only a function's own file. A checkout and an
+the torque code of ``fields/kernel.py`` into themselves and numba checks only a function's own file. A checkout and an
 installed copy of the same release share the folder (numba's own stamp is the file's content). A user who sets
 ``NUMBA_CACHE_DIR`` or ``NUMBA_CACHE_LOCATOR_CLASSES`` keeps numba's own behaviour. Functions outside xcheck
 are not affected.
@@ -35,7 +35,7 @@ __all__ = ["njit", "prange", "numba", "cache_root", "COMPILED_SOURCES"]
 
 PACKAGE = Path(__file__).resolve().parent
 #: The package files with ``cache=True`` functions, relative to the package folder.
-COMPILED_SOURCES = ("fields.py", "integrators/_kernels.py")
+COMPILED_SOURCES = ("fields/kernel.py", "integrators/_kernels.py")
 
 
 def _user_cache_home() -> Path:

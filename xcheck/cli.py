@@ -285,6 +285,8 @@ def _cmd_bench(args) -> int:
         argv += ["--json", args.json]
     if args.quick:
         argv.append("--quick")
+    if args.methods:
+        argv += ["--methods", ",".join(_methods_arg(args.methods))]
     argv += ["--repeat", str(args.repeat)]
     return bench_main(argv)
 
@@ -323,10 +325,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
     p.set_defaults(func=_cmd_report)
 
-    p = sub.add_parser("bench", help="steps per second of every method, and MuJoCo's")
-    p.add_argument("--json", metavar="PATH")
-    p.add_argument("--quick", action="store_true")
-    p.add_argument("--repeat", type=int, default=3)
+    p = sub.add_parser("bench", help="steps per second of every method, ours and the engines'")
+    p.add_argument("--json", metavar="PATH", help="write the rows as JSON (schema xcheck.bench/1)")
+    p.add_argument("--quick", action="store_true", help="shorter runs, a smaller batch")
+    p.add_argument("--methods", help="comma-separated methods (default: every method)")
+    p.add_argument("--repeat", type=int, default=3, help="best of this many runs (default 3)")
     p.set_defaults(func=_cmd_bench)
     return parser
 

@@ -15,7 +15,7 @@ from scipy.special import ellipj, ellipk, ellipkinc
 
 from . import rotations as rot
 from .body import principal_axes, validate_inertia
-from .trajectory import continuous_quaternions
+from .trajectory import check_initial_state, continuous_quaternions
 
 __all__ = ["exact_torque_free", "dop853", "dop853_solution", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL",
            "ReferenceFailure", "solve_bounded"]
@@ -36,10 +36,7 @@ class ReferenceFailure(RuntimeError):
 
 def _inputs(inertia, q0, omega0, t):
     I = validate_inertia(inertia)
-    q0 = rot.quat_normalize(q0)
-    omega0 = np.asarray(omega0, dtype=float)
-    if q0.shape != (4,) or omega0.shape != (3,) or not np.all(np.isfinite(omega0)):
-        raise ValueError("q0, omega0: expected one attitude (4,) and one finite body rate (3,)")
+    q0, omega0 = check_initial_state(q0, omega0)
     t = np.asarray(t, dtype=float)
     if t.ndim != 1 or not np.all(np.isfinite(t)):
         raise ValueError("t: expected a 1-D array of finite times [s]")

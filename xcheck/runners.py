@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from .integrators import METHODS, integrate
+from .integrators import METHODS, integrate, integrate_batch
 from .trajectory import Trajectory
 
 __all__ = ["Runner", "RUNNERS", "RunContext"]
@@ -30,7 +30,9 @@ class RunContext:
 class Runner:
     """One method of the cross-check. ``engine`` is ``"xcheck"`` for ours, else the simulator's name;
     ``agreement``: the study checks this method against our best fourth-order method at the finest step (an
-    engine's RK4); ``line_style``: how plots draw it (ours solid, engines dashed)."""
+    engine's RK4); ``line_style``: how plots draw it (ours solid, engines dashed); ``run_batch(ctx, q0 (N, 4),
+    omega0 (N, 3), dt)``: many initial states at once, for the methods that have a batch path (``xcheck bench``
+    times it)."""
 
     name: str
     engine: str  # "xcheck" | "mujoco"
@@ -39,6 +41,7 @@ class Runner:
     run: Callable[[RunContext, float], Trajectory]
     agreement: bool = False
     line_style: str = "-"
+    run_batch: Callable | None = None
 
 
 def _ours(name):
@@ -46,6 +49,13 @@ def _ours(name):
         return integrate(name, ctx.inertia, ctx.q0, ctx.omega0, dt=dt, duration=ctx.duration, torque=ctx.torque,
                          sequence=ctx.sequence)
     return run
+
+
+def _ours_batch(name):
+    def run_batch(ctx: RunContext, q0, omega0, dt: float):
+        return integrate_batch(name, ctx.inertia, q0, omega0, dt=dt, duration=ctx.duration, torque=ctx.torque,
+                               sequence=ctx.sequence)
+    return run_batch
 
 
 def _mujoco(integrator):
@@ -57,8 +67,10 @@ def _mujoco(integrator):
     return run
 
 
-RUNNERS: dict[str, Runner] = {name: Runner(name, "xcheck", m.expected_order, m.summary, _ours(name))
-                              for name, m in METHODS.items()}
+RUNNERS: dict[str, Runner] = {
+    name: Runner(name, "xcheck", m.expected_order, m.summary, _ours(name),
+                 run_batch=_ours_batch(name) if m.kernel is not None else None)
+    for name, m in METHODS.items()}
 RUNNERS.update({
     f"mujoco-{i}": Runner(f"mujoco-{i}", "mujoco", order, summary, _mujoco(i), agreement=(i == "rk4"), line_style="--")
     for i, order, summary in [

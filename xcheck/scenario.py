@@ -17,6 +17,7 @@ import numpy as np
 
 from . import rotations as rot
 from .models import BUNDLED_MODELS
+from .trajectory import check_initial_state
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -216,13 +217,15 @@ def load_scenario(path) -> Scenario:
                                "not both")
     if ini.has("quaternion"):
         q = ini.get("quaternion", ("vector", 4))
-        if not np.any(q):
-            ini.fail("quaternion", "a zero quaternion is not an attitude")
-        q0 = rot.quat_normalize(q)
         if ini.has("angular_velocity") == ini.has("angular_velocity_deg"):
             ini.fail("angular_velocity", "give exactly one of angular_velocity [rad/s] or angular_velocity_deg [deg/s]")
-        omega0 = ini.get("angular_velocity", ("vector", 3)) if ini.has("angular_velocity") else \
-            np.radians(ini.get("angular_velocity_deg", ("vector", 3)))
+        rate_key = "angular_velocity" if ini.has("angular_velocity") else "angular_velocity_deg"
+        rate = ini.get(rate_key, ("vector", 3))
+        try:
+            q0, omega0 = check_initial_state(q, rate if rate_key == "angular_velocity" else np.radians(rate))
+        except ValueError as exc:  # the one check of an initial state, reported under the key it read
+            key, _, why = str(exc).partition(": ")
+            ini.fail("quaternion" if key == "q0" else rate_key, why)
         if ini.has("euler_sequence"):
             sequence = ini.get("euler_sequence", "string")
     elif ini.has("euler_angles_deg"):
@@ -312,28 +315,30 @@ def load_scenario(path) -> Scenario:
 
 
 def _read_torque(tq: _Reader) -> dict:
+    """The [torque] table as plain values: ``kind``, and for a magnetic torque ``field``, ``dipole`` (optional)
+    and the field's own keys as its declaration lists them (:data:`xcheck.fields.FIELDS`)."""
+    from .fields import FIELDS
+
     kind = tq.get("kind", "string", required=True)
     out = {"kind": kind}
     if kind == "constant":
         out["torque"] = tq.get("torque", ("vector", 3), required=True).tolist()
     elif kind == "magnetic":
         field_name = tq.get("field", "string", required=True)
+        if field_name not in FIELDS:
+            tq.fail("field", f"expected one of {', '.join(repr(n) for n in FIELDS)}, got {field_name!r}")
         out["field"] = field_name
         if tq.has("dipole"):
             out["dipole"] = tq.get("dipole", ("vector", 3)).tolist()
-        if field_name in ("body-table", "world-table"):
-            out["table"] = str(tq.path_("table", required=True))
-        elif field_name in ("orbit-dipole", "igrf"):
-            for key in ("altitude_km", "inclination_deg", "raan_deg", "arg_latitude_deg", "earth_angle_deg"):
-                if tq.has(key):
-                    out[key] = tq.get(key, "number")
-            if field_name == "igrf" and tq.has("epoch"):
-                out["epoch"] = tq.get("epoch", "string")
-        elif field_name == "uniform":
-            out["H_world"] = tq.get("H_world", ("vector", 3), required=True).tolist()
-        else:
-            tq.fail("field", f"expected 'body-table', 'orbit-dipole', 'igrf', 'uniform' or 'world-table', got "
-                             f"{field_name!r}")
+        for key, spec in FIELDS[field_name].keys.items():
+            if not (spec.required or tq.has(key)):
+                continue
+            if spec.kind == "path":
+                out[key] = str(tq.path_(key, required=True))
+            elif spec.kind == "vector3":
+                out[key] = tq.get(key, ("vector", 3), required=True).tolist()
+            else:
+                out[key] = tq.get(key, spec.kind, required=True)
     else:
         tq.fail("kind", f"expected 'magnetic' or 'constant', got {kind!r}")
     tq.finish()
@@ -353,21 +358,9 @@ def build_torque(scenario: Scenario, body):
     if not np.any(dipole):
         raise ValueError(f"magnetic torque needs a dipole: none in {body.path} (<custom><numeric "
                          f"name=\"xcheck_dipole\">) and no 'dipole' key")
-    name = spec["field"]
-    orbit = {k: spec[k] for k in ("altitude_km", "inclination_deg", "raan_deg", "arg_latitude_deg",
-                                  "earth_angle_deg") if k in spec}
-    if name == "body-table":
-        field_model = fields.BodyFieldTable(fields.load_field_table(spec["table"]), source=spec["table"])
-    elif name == "world-table":
-        field_model = fields.WorldFieldTable(fields.load_field_table(spec["table"]), source=spec["table"])
-    elif name == "orbit-dipole":
-        field_model = fields.OrbitDipoleField(**orbit)
-    elif name == "igrf":
-        field_model = fields.IGRFField(duration=scenario.duration, **orbit,
-                                       **({"epoch": spec["epoch"]} if "epoch" in spec else {}))
-    else:
-        field_model = fields.UniformField(spec["H_world"])
-    torque = fields.MagneticTorque(dipole, field_model)
+    field = fields.FIELDS[spec["field"]]
+    values = {key: spec[key] for key in field.keys if key in spec}
+    torque = fields.MagneticTorque(dipole, field.from_keys(values, duration=scenario.duration))
     torque.check_span(scenario.duration)
     return torque
 

@@ -6,7 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "time_grid", "check_step", "available_memory"]
+__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "time_grid", "check_step", "check_initial_state",
+           "available_memory"]
 
 #: Relative tolerance for treating ``duration / dt`` as an integer number of steps.
 _INTEGER_STEPS_RTOL = 1e-9
@@ -92,6 +93,36 @@ def step_plan(dt, duration) -> tuple[int, float]:
     if n > MAX_STEPS:
         raise ValueError(f"dt: {n} steps of {dt:g} s over {duration:g} s exceeds the limit of {MAX_STEPS}")
     return n, duration - (n - 1) * dt
+
+
+def check_initial_state(q0, omega0, *, batch: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """The initial attitude, normalised, and body rate of a run, or a ValueError naming the argument.
+
+    ``q0``: [w, x, y, z] body -> world, shape (4,) (``batch``: (N, 4)), finite and not zero (normalised here,
+    without overflow); ``omega0``: body rate [rad/s], shape (3,) (``batch``: (N, 3)), finite. The one place
+    an initial state is checked: our integrators, the engines and the references call it, and the scenario
+    reader reports its message under the key it read.
+    """
+    from .rotations import _unit_quat
+
+    def numbers(x, name, n, unit):
+        try:
+            a = np.asarray(x, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}: expected {n} numbers{unit}, got {x!r}") from None
+        want = 2 if batch else 1
+        if a.ndim != want or a.shape[-1] != n:
+            shape = f"(N, {n})" if batch else f"({n},)"
+            raise ValueError(f"{name}: expected shape {shape}{unit}, got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name}: contains non-finite values")
+        return a
+
+    q = _unit_quat(numbers(q0, "q0", 4, " [w, x, y, z]"), "q0")
+    w = numbers(omega0, "omega0", 3, " [rad/s]")
+    if batch and q.shape[0] != w.shape[0]:
+        raise ValueError(f"q0, omega0: expected as many attitudes as body rates, got {q.shape[0]} and {w.shape[0]}")
+    return q, w
 
 
 def time_grid(n: int, dt: float, duration: float) -> np.ndarray:

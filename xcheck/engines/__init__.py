@@ -1,6 +1,20 @@
-"""The simulators xcheck cross-checks, by engine name, with the package each needs: its version goes into
-every report (:func:`xcheck.versions.versions`). An engine is its module here plus its runners in
-:mod:`xcheck.runners`."""
+"""The simulators xcheck cross-checks. An engine is its module here, its entry in :data:`ENGINES` and its
+runners in :mod:`xcheck.runners`: the module provides the simulation (``simulate`` -> ``Trajectory``) and may
+provide ``bench_extras(contexts, dt, nsteps, repeat)`` (rows of its own for ``xcheck bench``); the entry names
+the distribution whose version every report records (:func:`xcheck.versions.versions`)."""
 
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Engine:
+    name: str  # the runners' ``engine`` field, the prefix of their method names
+    package: str  # the distribution whose version a report records
+    module: str  # the module with ``simulate`` (imported only when the engine runs)
+
+
+ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco")}
 #: engine name -> the distribution whose version a report records
-ENGINE_PACKAGES = {"mujoco": "mujoco"}
+ENGINE_PACKAGES = {name: engine.package for name, engine in ENGINES.items()}

@@ -28,7 +28,7 @@ from mujoco import rollout
 from .. import rotations as rot
 from ..fields import TorqueModel, torque_eval
 from ..models import MJCFBody, load_mujoco
-from ..trajectory import Trajectory, continuous_quaternions, step_plan, time_grid
+from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan, time_grid
 
 __all__ = ["simulate", "control_callback", "mujoco_warnings", "INTEGRATORS"]
 
@@ -110,10 +110,7 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
     if torque_mode not in ("callback", "held"):
         raise ValueError(f"torque_mode: expected 'callback' or 'held', got {torque_mode!r}")
     m, body = _prepare(model)
-    q0 = rot.quat_normalize(q0)
-    omega0 = np.asarray(omega0, dtype=float)
-    if q0.shape != (4,) or omega0.shape != (3,) or not np.all(np.isfinite(omega0)):
-        raise ValueError("q0, omega0: expected one attitude (4,) and one finite body rate (3,) [rad/s]")
+    q0, omega0 = check_initial_state(q0, omega0)
     n, last_h = step_plan(dt, duration)
     if isinstance(torque, TorqueModel):
         torque.check_span(duration)
@@ -217,3 +214,25 @@ def _loop(m, d, n, last_h, qpos_out, qvel_out, before_step=None):
         qpos_out[k + 1] = d.qpos
         qvel_out[k + 1] = d.qvel
     m.opt.timestep = dt
+
+
+def bench_extras(contexts, dt, nsteps, repeat):
+    """``xcheck bench`` rows of MuJoCo's own: bare ``mj_step`` calls (RK4, torque free) in a Python loop, no
+    state read back: MuJoCo's per-step rate without anything of ours around it."""
+    import time
+
+    ctx = contexts["gyroscope-nonsingular"]
+    m, body = _prepare(ctx.model_path)
+    m.opt.timestep = dt
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    best = np.inf
+    for _ in range(repeat):
+        d = mujoco.MjData(m)
+        d.qpos[body.qpos_adr + 3:body.qpos_adr + 7] = ctx.q0
+        d.qvel[body.dof_adr + 3:body.dof_adr + 6] = ctx.omega0
+        step = mujoco.mj_step
+        t0 = time.perf_counter()
+        for _ in range(nsteps):
+            step(m, d)
+        best = min(best, time.perf_counter() - t0)
+    return [("mujoco-rk4 (mj_step loop)", "gyroscope-nonsingular", best, nsteps)]

@@ -19,7 +19,7 @@ import numpy as np
 from .. import rotations as rot
 from ..body import validate_inertia
 from ..fields import TorqueModel
-from ..trajectory import Trajectory, step_plan, time_grid
+from ..trajectory import Trajectory, check_initial_state, step_plan, time_grid
 from . import _kernels
 from .kernel_args import KernelArgs
 from .methods import METHODS, Method
@@ -73,22 +73,6 @@ def _resolve_torque(torque, duration):
                      f"{type(torque).__name__}")
 
 
-def _vector(x, name, n, unit=""):
-    try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: expected {n} numbers{unit}") from exc
-    if a.shape[-1:] != (n,):
-        raise ValueError(f"{name}: expected shape ({n},){unit}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name}: contains non-finite values")
-    return a
-
-
-def _unit_quaternion(q0, name="q0"):
-    return rot._unit_quat(_vector(q0, name, 4, " [w, x, y, z]"), name)
-
-
 def _kernel_args(info: Method, sequence: str, *, dt, n, last_h, torque, save_every) -> KernelArgs:
     A, b, c = info.tableau.arrays()
     use_hat = info.dexp_A is not None
@@ -137,8 +121,7 @@ def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, t
     """
     info = _method(method)
     I = validate_inertia(inertia)
-    q0 = _unit_quaternion(q0)
-    omega0 = _vector(omega0, "omega0", 3, " [rad/s]")
+    q0, omega0 = check_initial_state(q0, omega0)
     if q0.ndim != 1 or omega0.ndim != 1:
         raise ValueError("q0, omega0: integrate takes one trajectory; use integrate_batch for stacks")
     n, last_h = step_plan(dt, duration)
@@ -194,10 +177,7 @@ def integrate_batch(method: str, inertia, q0, omega0, *, dt: float, duration: fl
     info = _method(method)
     if info.kernel is None:
         raise ValueError(f"method: {method} has no batch path; use integrate()")
-    q0 = _unit_quaternion(q0)
-    omega0 = _vector(omega0, "omega0", 3, " [rad/s]")
-    if q0.ndim != 2 or omega0.shape != (q0.shape[0], 3):
-        raise ValueError(f"q0, omega0: expected shapes (N, 4) and (N, 3), got {q0.shape} and {omega0.shape}")
+    q0, omega0 = check_initial_state(q0, omega0, batch=True)
     N = q0.shape[0]
     inertia = np.asarray(inertia, dtype=float)
     if inertia.shape in ((3,), (3, 3)):

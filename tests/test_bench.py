@@ -1,0 +1,33 @@
+"""``xcheck bench``: rows come from the runner registry, every runner on both bench scenarios, batch rows exactly
+for the runners with a batch path, an engine's own rows, and the JSON schema."""
+
+import json
+import math
+
+from xcheck.bench import BENCH_SCENARIOS, run_bench
+from xcheck.cli import main
+from xcheck.runners import RUNNERS
+
+
+def test_rows_follow_the_runner_registry():
+    methods = ["lie-cf4", "scipy-rk45", "mujoco-rk4", "mujoco-euler"]
+    rows = run_bench(quick=True, repeat=1, batch=16, methods=methods)
+    single = {(r["method"], r["scenario"]) for r in rows if r["batch"] == 1}
+    assert {(m, s) for m in methods for s in BENCH_SCENARIOS} <= single
+    batched = {r["method"] for r in rows if r["batch"] > 1}
+    assert batched == {m for m in methods if RUNNERS[m].run_batch is not None} == {"lie-cf4"}
+    assert ("mujoco-rk4 (mj_step loop)", "gyroscope-nonsingular") in single  # the engine's own row
+    assert all(r["engine"] == RUNNERS[r["method"].split(" ")[0]].engine for r in rows)
+    assert all(math.isfinite(r["steps_per_second"]) and r["steps_per_second"] > 0 for r in rows)
+    # only engines whose runners were asked for add rows
+    assert not any("mj_step" in r["method"] for r in run_bench(quick=True, repeat=1, batch=4, methods=["lie-cf4"]))
+
+
+def test_bench_cli_writes_json_and_refuses_unknown_methods(tmp_path, capsys):
+    out = tmp_path / "b.json"
+    assert main(["bench", "--quick", "--repeat", "1", "--methods", "formulation-2", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["schema"] == "xcheck.bench/1" and "mujoco" in doc["versions"]
+    assert {(r["method"], r["batch"]) for r in doc["results"]} == {("formulation-2", 1), ("formulation-2", 1000)}
+    assert main(["bench", "--methods", "nonesuch"]) == 2
+    assert "--methods: unknown method 'nonesuch'" in capsys.readouterr().err

@@ -1,0 +1,151 @@
+"""The compiled torque kernel: every torque model evaluated from plain arrays, without a Python call per stage.
+
+A torque model is an integer *kind* (:data:`FREE`, :data:`CONSTANT`, :data:`MAGNETIC`), a parameter vector ``P``
+and a table ``T`` (2-D, empty when unused). ``P`` is read by named slot:
+
+==============  ==========================================================================================
+slot            meaning
+==============  ==========================================================================================
+``VECTOR``      ``P[0:3]``: the constant torque [N m] (CONSTANT) or the permanent dipole M_p [A m^2] (MAGNETIC)
+``EVALUATOR``   ``P[3]``: how the field is evaluated (:data:`TABLE`, :data:`CONSTANT_FIELD`, :data:`ORBIT_DIPOLE`)
+``FRAME``       ``P[4]``: the components the field is given in, :data:`BODY` or :data:`WORLD` (then the torque
+                depends on attitude: ``H_body = R^T H_world``)
+``FIELD``       ``P[5:]``: the field's own parameters, in the order of its declared ``slots``
+==============  ==========================================================================================
+
+Magnetic torque (seed 004 eq. 174): ``t' = mu0 (M_p x H)`` in body components, ``H`` the field strength [A/m]
+in body components, ``mu0 = 4 pi 1e-7`` H/m; ``B = mu0 H`` [T].
+
+Every ``cache=True`` function of the fields lives in this file (see :data:`xcheck._jit.COMPILED_SOURCES`): the
+integrator kernels compile it into themselves.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._jit import njit
+
+#: Vacuum permeability [H/m] as used by seed 004 eq. 174.
+MU0 = 4e-7 * np.pi
+
+# torque kinds
+FREE = 0
+CONSTANT = 1
+MAGNETIC = 2
+
+# slots of P
+VECTOR = 0
+EVALUATOR = 3
+FRAME = 4
+FIELD = 5
+
+# field evaluators (P[EVALUATOR])
+TABLE = 0  # T's columns 1-3 linearly interpolated in time (column 0)
+CONSTANT_FIELD = 1  # the field's slots (Hx, Hy, Hz)
+ORBIT_DIPOLE = 2  # a tilted dipole Earth along a circular orbit (slots: OrbitDipoleField.slots)
+
+# field frames (P[FRAME])
+BODY = 0
+WORLD = 1
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def interp_rows(T, t):
+    """Linear interpolation of the table columns 1-3 at time ``t`` (column 0 ascending), as a tuple."""
+    n = T.shape[0]
+    i = np.searchsorted(T[:, 0], t, side="right") - 1
+    if i < 0:
+        i = 0
+    if i > n - 2:
+        i = n - 2
+    s = (t - T[i, 0]) / (T[i + 1, 0] - T[i, 0])
+    return (T[i, 1] + s * (T[i + 1, 1] - T[i, 1]),
+            T[i, 2] + s * (T[i + 1, 2] - T[i, 2]),
+            T[i, 3] + s * (T[i + 1, 3] - T[i, 3]))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def world_to_body(q, vx, vy, vz):
+    """``R(q)^T v`` for a (not necessarily unit) quaternion ``q`` [w, x, y, z], normalised here."""
+    n = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    w = q[0] / n
+    x = -q[1] / n  # rotation by the conjugate: u = -vec(q)
+    y = -q[2] / n
+    z = -q[3] / n
+    # v + 2 w (u x v) + 2 u x (u x v)
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return (vx + w * tx + (y * tz - z * ty),
+            vy + w * ty + (z * tx - x * tz),
+            vz + w * tz + (x * ty - y * tx))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def orbit_dipole_world(p, t):
+    """Field strength H [A/m] in world (inertial) components of a dipole Earth along a circular orbit.
+
+    ``p`` (the slots of :class:`~xcheck.fields.OrbitDipoleField`): orbit radius [m], mean motion [rad/s],
+    inclination, right ascension of the ascending node, argument of latitude at t = 0, Earth rotation angle
+    at t = 0 [rad], Earth rotation rate [rad/s], dipole moment in Earth-fixed components [A m^2].
+    ``H = (3 (m.r^) r^ - m) / (4 pi |r|^3)``.
+    """
+    a, n, inc, raan, u0, g0, we = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
+    u = u0 + n * t
+    cu, su, ci, si, cO, sO = np.cos(u), np.sin(u), np.cos(inc), np.sin(inc), np.cos(raan), np.sin(raan)
+    rx = cO * cu - sO * su * ci
+    ry = sO * cu + cO * su * ci
+    rz = su * si
+    g = g0 + we * t  # Earth-fixed -> inertial: rotation by g about z
+    cg, sg = np.cos(g), np.sin(g)
+    mx = cg * p[7] - sg * p[8]
+    my = sg * p[7] + cg * p[8]
+    mz = p[9]
+    mr = mx * rx + my * ry + mz * rz
+    k = 1.0 / (4.0 * np.pi * a * a * a)
+    return k * (3.0 * mr * rx - mx), k * (3.0 * mr * ry - my), k * (3.0 * mr * rz - mz)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def field_body(P, T, t, q):
+    """Field strength H [A/m] in body components of the field described by ``P[EVALUATOR:]`` and ``T``."""
+    evaluator = int(P[EVALUATOR])
+    p = P[FIELD:]
+    if evaluator == TABLE:
+        hx, hy, hz = interp_rows(T, t)
+    elif evaluator == CONSTANT_FIELD:
+        hx, hy, hz = p[0], p[1], p[2]
+    else:  # ORBIT_DIPOLE
+        hx, hy, hz = orbit_dipole_world(p, t)
+    if P[FRAME] == WORLD:
+        return world_to_body(q, hx, hy, hz)
+    return hx, hy, hz
+
+
+@njit(cache=True, error_model="numpy")
+def torque_eval(kind, P, T, t, q, w, out):
+    """Body-frame torque [N m] of the model ``(kind, P, T)`` at time ``t`` [s], attitude ``q`` [w, x, y, z]
+    (body -> world, normalised here) and body rate ``w`` [rad/s]; written into ``out`` (3,)."""
+    if kind == FREE:
+        out[0] = 0.0
+        out[1] = 0.0
+        out[2] = 0.0
+    elif kind == CONSTANT:
+        out[0] = P[VECTOR]
+        out[1] = P[VECTOR + 1]
+        out[2] = P[VECTOR + 2]
+    else:  # MAGNETIC: seed 004 eq. 174, t' = mu0 (M_p x H)
+        hx, hy, hz = field_body(P, T, t, q)
+        mx, my, mz = P[VECTOR], P[VECTOR + 1], P[VECTOR + 2]
+        out[0] = MU0 * (my * hz - mz * hy)
+        out[1] = MU0 * (mz * hx - mx * hz)
+        out[2] = MU0 * (mx * hy - my * hx)
+
+
+@njit(cache=True, error_model="numpy")
+def torque_needs_attitude(kind, P):
+    """Whether the model's torque depends on the attitude (kernels skip computing it otherwise): the field is
+    given in world components. (The same answer as the Python side's ``attitude_dependent``: both read the
+    field's declared frame.)"""
+    return kind == MAGNETIC and P[FRAME] == WORLD

@@ -1,0 +1,217 @@
+"""Torque models (what the integrators evaluate) and the field models a magnetic torque sees.
+
+A *field model* is one declaration: a subclass of :class:`Field` that names itself (``name``, the scenario's
+``field = "..."``), its scenario keys (``keys``), its parameter slots (``slots``, read by the compiled
+evaluator in that order), the components it is given in (``frame``: ``"body"``, or ``"world"`` and then the
+torque depends on attitude), which compiled evaluator computes it (``evaluator``), and how a scenario's values
+build it (``from_keys``). :data:`xcheck.fields.FIELDS` registers it by name; the scenario reader, the torque
+builder and their error messages read that registry only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from . import kernel
+
+_EMPTY_TABLE = np.zeros((0, 4))
+
+
+def _vector3(name, value, unit):
+    v = np.asarray(value, dtype=float)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise ValueError(f"{name}: expected a finite (3,) vector in {unit}, got {value!r}")
+    return v
+
+
+# ------------------------------------------------------------------------------------------------
+# torque models
+# ------------------------------------------------------------------------------------------------
+class TorqueModel:
+    """A torque as data: ``kind`` (:mod:`.kernel`), ``P`` (1-D float array, by the kernel's named slots) and
+    ``T`` (2-D float array). Every model is also a Python callable ``model(t, q, omega) -> (3,)`` [N m], the
+    same compiled function the integrators call."""
+
+    kind: int = kernel.FREE
+    P: np.ndarray = np.zeros(3)
+    T: np.ndarray = _EMPTY_TABLE
+    attitude_dependent: bool = False
+
+    def kernel_data(self) -> tuple[int, np.ndarray, np.ndarray]:
+        return self.kind, self.P, self.T
+
+    def __call__(self, t, q, omega) -> np.ndarray:
+        out = np.empty(3)
+        kernel.torque_eval(self.kind, self.P, self.T, float(t), np.ascontiguousarray(q, dtype=float),
+                           np.ascontiguousarray(omega, dtype=float), out)
+        return out
+
+    def check_span(self, t_end: float) -> None:
+        """Raise ValueError if the model is not defined on ``[0, t_end]``."""
+
+    def describe(self) -> str:
+        return type(self).__name__
+
+
+class ConstantTorque(TorqueModel):
+    """A constant torque in body components [N m]."""
+
+    kind = kernel.CONSTANT
+
+    def __init__(self, torque_body):
+        self.P = _vector3("torque_body", torque_body, "N m").copy()
+
+    def describe(self) -> str:
+        return f"constant body torque {self.P.tolist()} N m"
+
+
+class MagneticTorque(TorqueModel):
+    """Seed 004 eq. 174: ``t' = mu0 (M_p x H_body)`` for a permanent dipole in a field model."""
+
+    kind = kernel.MAGNETIC
+
+    def __init__(self, dipole, field: Field):
+        self.dipole = _vector3("dipole", dipole, "A m^2")
+        self.field = field
+        self.P = np.concatenate([self.dipole, field.params()])
+        self.T = np.ascontiguousarray(field.T) if field.T.size else _EMPTY_TABLE
+        self.attitude_dependent = field.attitude_dependent
+
+    def check_span(self, t_end: float) -> None:
+        self.field.check_span(t_end)
+
+    def describe(self) -> str:
+        return f"magnetic dipole {self.dipole.tolist()} A m^2 in {self.field.describe()}"
+
+
+def magnetic_torque(dipole, H_body):
+    """``mu0 (M_p x H)`` (seed 004 eq. 174) for stacks ``(..., 3)``: dipole [A m^2], H [A/m] -> [N m]."""
+    return kernel.MU0 * np.cross(np.asarray(dipole, float), np.asarray(H_body, float))
+
+
+# ------------------------------------------------------------------------------------------------
+# field models
+# ------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Key:
+    """A scenario key of a field model: ``kind`` is ``"number"``, ``"vector3"``, ``"string"`` or ``"path"`` (a
+    file, relative to the scenario)."""
+
+    kind: str
+    required: bool = False
+    help: str = ""
+
+
+class Field:
+    """A magnetic field model (see the module docstring for the declaration it makes)."""
+
+    name: ClassVar[str]
+    keys: ClassVar[dict[str, Key]] = {}
+    slots: ClassVar[tuple[str, ...]] = ()
+    frame: ClassVar[str] = "world"
+    evaluator: ClassVar[int]
+    T: np.ndarray = _EMPTY_TABLE
+
+    @property
+    def attitude_dependent(self) -> bool:
+        """Whether the torque depends on attitude: the field is given in world components."""
+        return self.frame == "world"
+
+    @classmethod
+    def from_keys(cls, values: dict, *, duration: float) -> Field:
+        """The model from a scenario's values of :attr:`keys` (paths as strings), for a run of ``duration``."""
+        return cls(**values)
+
+    def slot_values(self) -> dict[str, float]:
+        """The values of :attr:`slots` (compiled evaluators read them in that order)."""
+        return {}
+
+    def params(self) -> np.ndarray:
+        """This field's part of a torque model's ``P``: evaluator, frame, then the slots in order."""
+        values = self.slot_values()
+        if list(values) != list(self.slots):
+            raise AssertionError(f"{type(self).__name__}: slot_values() gives {list(values)}, slots declare "
+                                 f"{list(self.slots)}")
+        frame = {"body": kernel.BODY, "world": kernel.WORLD}[self.frame]
+        return np.array([float(self.evaluator), float(frame), *values.values()], dtype=float)
+
+    def check_span(self, t_end: float) -> None:
+        """Raise ValueError if the field is not defined on ``[0, t_end]``."""
+
+    def describe(self) -> str:
+        return self.name
+
+
+class BodyFieldTable(Field):
+    """A field strength time series in body components (CSV columns t [s], Hx, Hy, Hz [A/m]), linearly
+    interpolated: the torque does not depend on attitude (seed 004 §3.2, the thesis's set-up)."""
+
+    name = "body-table"
+    keys = {"table": Key("path", required=True, help="CSV: t [s], Hx, Hy, Hz [A/m]")}
+    frame = "body"
+    evaluator = kernel.TABLE
+
+    def __init__(self, table, *, source: str = "table"):
+        T = np.asarray(table, dtype=float)
+        if T.ndim != 2 or T.shape[1] != 4 or T.shape[0] < 2:
+            raise ValueError(f"{source}: expected rows of 4 columns (t [s], Hx, Hy, Hz [A/m]) and at least 2 rows, "
+                             f"got shape {T.shape}")
+        if not np.all(np.isfinite(T)):
+            raise ValueError(f"{source}: contains non-finite values")
+        if not np.all(np.diff(T[:, 0]) > 0):
+            raise ValueError(f"{source}: the time column must be strictly increasing")
+        self.T = np.ascontiguousarray(T)
+        self.source = source
+
+    @classmethod
+    def from_keys(cls, values, *, duration):
+        from .tables import load_field_table
+
+        return cls(load_field_table(values["table"]), source=values["table"])
+
+    def check_span(self, t_end: float) -> None:
+        t0, t1 = self.T[0, 0], self.T[-1, 0]
+        if t0 > 0 or t1 < t_end:
+            raise ValueError(f"{self.source}: the field table covers {t0:g} to {t1:g} s; the run needs 0 to "
+                             f"{t_end:g} s (times outside a table are an error, not an extrapolation)")
+
+    def H_body(self, t) -> np.ndarray:
+        """Field strength [A/m] in the table's components at times ``t`` (...,) -> (..., 3)."""
+        t = np.asarray(t, dtype=float)
+        return np.stack([np.interp(t, self.T[:, 0], self.T[:, k]) for k in (1, 2, 3)], axis=-1)
+
+    def describe(self) -> str:
+        return f"body-frame field table {self.source} ({self.T.shape[0]} rows, {self.T[0, 0]:g}-{self.T[-1, 0]:g} s)"
+
+
+class WorldFieldTable(BodyFieldTable):
+    """A field strength time series in world (inertial) components, linearly interpolated: the torque
+    depends on attitude. (Knots every 0.5 s fall on the steps' boundaries: RK4 keeps its order.)"""
+
+    name = "world-table"
+    frame = "world"
+
+    def describe(self) -> str:
+        return f"world-frame field table {self.source} ({self.T.shape[0]} rows)"
+
+
+class UniformField(Field):
+    """A field fixed in inertial space (world components, [A/m]): the torque depends on attitude."""
+
+    name = "uniform"
+    keys = {"H_world": Key("vector3", required=True, help="[A/m], world components")}
+    slots = ("Hx", "Hy", "Hz")
+    frame = "world"
+    evaluator = kernel.CONSTANT_FIELD
+
+    def __init__(self, H_world):
+        self.H_world = _vector3("H_world", H_world, "A/m")
+
+    def slot_values(self):
+        return dict(zip(self.slots, self.H_world.tolist()))
+
+    def describe(self) -> str:
+        return f"uniform inertial field {self.H_world.tolist()} A/m"
