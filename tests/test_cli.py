@@ -29,7 +29,7 @@ def xcheck(*args, cwd=None):
 @pytest.fixture(scope="module")
 def quick_report(tmp_path_factory):
     out = tmp_path_factory.mktemp("reports")
-    proc = xcheck("report", "--quick", "--out", str(out))
+    proc = xcheck("report", "--quick", "--trajectories", "--out", str(out))
     return proc, out
 
 
@@ -316,6 +316,7 @@ def test_interrupt_leaves_no_half_report(tmp_path, monkeypatch, capsys):
     assert main(["report", "tumbler-intermediate-axis", "--quick", "--out", str(out), "--workers", "1"]) == 0
     before = sorted(p.name for p in out.iterdir())
     target = (out / "latest").resolve()
+    assert not (target / "trajectories").exists()  # opt-in: --trajectories (the quick_report fixture asks for them)
 
     import xcheck.report.render as render
 

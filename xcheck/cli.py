@@ -20,6 +20,8 @@ from pathlib import Path
 
 from . import __version__
 
+_STARTED = time.perf_counter()  # when the command line was imported: the baseline of --timings
+
 EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_BUG, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 3, 130, 143
 #: The formats ``run --plot`` writes, by file ending.
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
@@ -236,40 +238,61 @@ def _plot_run(path, title, traj, err):
     save_figure(fig, path)
 
 
+#: What a report's workers import as soon as they start (studies, MuJoCo, figures).
+WORKER_MODULES = ("xcheck.study", "xcheck.engines.mujoco", "xcheck.report.plots")
+
+
 def _cmd_report(args) -> int:
     from .pool import worker_pool
-    from .report.io import check_output_dir
-    from .report.render import write_report
-    from .scenario import bundled_scenarios, resolve_scenario
-    from .study import run_studies, throughput_rows
 
-    names = args.scenarios or list(bundled_scenarios())
-    scenarios = [resolve_scenario(n) for n in names]  # every input error before any work
-    first = {}
-    for sc in scenarios:
-        if sc.name in first:
-            raise UsageError(f"two scenarios are named {sc.name!r} ({first[sc.name]} and {sc.path}): a report needs "
-                             "distinct names (they name its files)")
-        first[sc.name] = sc.path
-    check_output_dir(args.out, "--out")
     t0 = time.perf_counter()
+    marks = [("start", _STARTED), ("pool started", t0)]
     progress = Progress()
-    # --workers 1: everything in this process; otherwise one pool for the studies and the figures
-    with worker_pool(args.workers) if args.workers != 1 else nullcontext() as pool:
-        studies = run_studies(scenarios, quick=args.quick, progress=progress, pool=pool, workers=args.workers)
+    # --workers 1: everything in this process; otherwise one pool for the studies and the figures, started
+    # first so that the workers import numpy, numba, MuJoCo and matplotlib while this process imports its
+    # own and reads the scenarios
+    with worker_pool(args.workers, warm=WORKER_MODULES) if args.workers != 1 else nullcontext() as pool:
+        from .report.io import check_output_dir
+        from .report.render import draw_figures, write_report
+        from .scenario import bundled_scenarios, resolve_scenario
+        from .study import run_studies, throughput_rows
+
+        names = args.scenarios or list(bundled_scenarios())
+        scenarios = [resolve_scenario(n) for n in names]  # every input error before any work
+        first = {}
+        for sc in scenarios:
+            if sc.name in first:
+                raise UsageError(f"two scenarios are named {sc.name!r} ({first[sc.name]} and {sc.path}): a report "
+                                 "needs distinct names (they name its files)")
+            first[sc.name] = sc.path
+        check_output_dir(args.out, "--out")
+        marks.append(("scenarios read", time.perf_counter()))
+        figures = {}
+
+        def draw(study):  # a scenario's figures, drawn by a worker as soon as its studies are in
+            figures[study.name] = pool.submit(draw_figures, study.data, study.series, args.quick)
+
+        studies = run_studies(scenarios, quick=args.quick, progress=progress, pool=pool, workers=args.workers,
+                              on_study=draw if pool is not None else None)
+        marks.append(("studies", time.perf_counter()))
         rows = throughput_rows(studies)
         if args.bench:
             from .bench import run_bench
 
             rows += run_bench(quick=args.quick, repeat=1)
         folder = write_report(studies, args.out, throughput=rows, wall_time=time.perf_counter() - t0,
-                              quick=args.quick, pool=pool)
+                              quick=args.quick, pool=pool, figures=figures, trajectories=args.trajectories,
+                              marks=marks)
         args.written = folder  # an interrupt from here on must not say "no report was written"
+    marks.append(("workers stopped", time.perf_counter()))
     for st in studies:
         _print_study(st)
     passed = all(st.passed for st in studies)
     print(f"\nreport: {folder}/index.html ({'PASSED' if passed else 'FAILED'}); wall time "
           f"{time.perf_counter() - t0:.1f} s")
+    if args.timings:
+        print("where the time went: " + ", ".join(f"{what} {b - a:.2f} s" for (_, a), (what, b)
+                                                 in zip(marks, marks[1:])), file=sys.stderr)
     return EXIT_OK if passed else EXIT_CHECK_FAILED
 
 
@@ -322,6 +345,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="reports", metavar="DIR", help="where reports go (default: ./reports)")
     p.add_argument("--quick", action="store_true", help="fewer steps, for a fast look")
     p.add_argument("--bench", action="store_true", help="also run the benchmark into the appendix")
+    p.add_argument("--timings", action="store_true", help="print where the time went (phases, on stderr)")
+    p.add_argument("--trajectories", action="store_true",
+                   help="also write every method's finest run as CSV (trajectories/, ~4 MB a scenario)")
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
     p.set_defaults(func=_cmd_report)
 

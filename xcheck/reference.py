@@ -187,7 +187,9 @@ def rigid_body_rhs(inertia, torque=None):
                              q[0] * w[0] + q[2] * w[2] - q[3] * w[1],
                              q[0] * w[1] + q[3] * w[0] - q[1] * w[2],
                              q[0] * w[2] + q[1] * w[1] - q[2] * w[0]])
-        wd = Iinv @ (tau - np.cross(w, I @ w))
+        h = I @ w
+        wxh = np.array([w[1] * h[2] - w[2] * h[1], w[2] * h[0] - w[0] * h[2], w[0] * h[1] - w[1] * h[0]])
+        wd = Iinv @ (tau - wxh)  # (np.cross costs ten times more on 3-vectors)
         return np.concatenate([qd, wd])
 
     return f

@@ -93,9 +93,10 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
 
 
 def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, progress=None,
-                pool=None) -> list[StudyResult]:
+                pool=None, on_study=None) -> list[StudyResult]:
     """Several studies over one pool of worker processes: every (scenario, method) pair is one task,
-    submitted together so that both cores stay busy to the end."""
+    submitted together so that both cores stay busy to the end. ``on_study(study)`` is called as soon as a
+    scenario's last task is in (the report submits its figures then, behind the studies still queued)."""
     plans = []
     for sc in scenarios:
         methods = default_methods(sc)
@@ -103,33 +104,47 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
         plans.append((sc, methods, steps))
     tasks = [(sc, m, tuple(steps)) for sc, methods, steps in plans for m in methods]
     labels = [f"{sc.name}: {m}" for sc, methods, _ in plans for m in methods]
-    results = _map(_run_method, tasks, workers=workers, progress=progress, pool=pool, labels=labels)
-    out, i = [], 0
-    for sc, methods, steps in plans:
-        out.append(assemble(sc, steps, results[i:i + len(methods)], quick=quick))
-        i += len(methods)
-    return out
+    owner = [k for k, (_, methods, _) in enumerate(plans) for _ in methods]
+    first = np.cumsum([0] + [len(methods) for _, methods, _ in plans])
+    missing = [len(methods) for _, methods, _ in plans]
+    studies: list = [None] * len(plans)
+    results: list = [None] * len(tasks)
+
+    def done(i, result):
+        results[i] = result
+        k = owner[i]
+        missing[k] -= 1
+        if missing[k] == 0:
+            sc, _, steps = plans[k]
+            studies[k] = assemble(sc, steps, results[first[k]:first[k + 1]], quick=quick)
+            if on_study:
+                on_study(studies[k])
+
+    _map(_run_method, tasks, workers=workers, progress=progress, pool=pool, labels=labels, on_result=done)
+    return studies
 
 
-def _map(fn, tasks, *, workers, progress, pool, labels):
+def _map(fn, tasks, *, workers, progress, pool, labels, on_result=None):
     total = len(tasks)
+    out = [None] * total
+
+    def record(i, result, done):
+        out[i] = result
+        if on_result:
+            on_result(i, result)
+        if progress:
+            progress(done, total, labels[i])
+
     if pool is None and (workers == 1 or total == 1):
-        out = []
         for i, task in enumerate(tasks):
-            out.append(fn(*task))
-            if progress:
-                progress(i + 1, total, labels[i])
+            record(i, fn(*task), i + 1)
         return out
     if pool is None:
         with worker_pool(workers) as own:
-            return _map(fn, tasks, workers=workers, progress=progress, pool=own, labels=labels)
+            return _map(fn, tasks, workers=workers, progress=progress, pool=own, labels=labels, on_result=on_result)
     futures = {pool.submit(fn, *task): i for i, task in enumerate(tasks)}
-    out = [None] * total
     for done, fut in enumerate(as_completed(futures), start=1):
-        i = futures[fut]
-        out[i] = fut.result()
-        if progress:
-            progress(done, total, labels[i])
+        record(futures[fut], fut.result(), done)
     return out
 
 
@@ -178,6 +193,7 @@ class _Reference:
     def __init__(self, scenario: Scenario, ctx: RunContext):
         self.kind = scenario.reference
         self.scenario, self.ctx = scenario, ctx
+        self._grids = []
         if self.kind == "exact":  # fails early when the body turns too fast for the quadrature
             exact_torque_free(ctx.inertia, ctx.q0, ctx.omega0, np.array([0.0, ctx.duration]))
         elif self.kind == "dop853":
@@ -190,7 +206,17 @@ class _Reference:
                                        f"s) did not complete: {self.fine.message}")
 
     def at(self, t):
-        """(q, omega, mask): reference values at the times ``t`` where it is defined (``mask``)."""
+        """(q, omega, mask): reference values at the times ``t`` where it is defined (``mask``). The last few
+        grids asked for are kept: every method of a scenario runs on the same grids, and a worker runs several."""
+        t = np.asarray(t, dtype=float)
+        for grid, values in self._grids:
+            if len(grid) == len(t) and np.array_equal(grid, t):
+                return values
+        values = self._at(t)
+        self._grids = [(t.copy(), values), *self._grids[:15]]
+        return values
+
+    def _at(self, t):
         if self.kind == "exact":
             q, w = exact_torque_free(self.ctx.inertia, self.ctx.q0, self.ctx.omega0, t)
             return q, w, np.ones(len(t), bool)

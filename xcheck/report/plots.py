@@ -14,7 +14,7 @@ import numpy as np  # noqa: E402
 from .. import rotations as rot  # noqa: E402
 from ..runners import RUNNERS  # noqa: E402
 
-__all__ = ["scenario_figures", "new_figure", "save_figure"]
+__all__ = ["render_figures", "scenario_figures", "new_figure", "save_figure"]
 
 _STYLE = {"figure.dpi": 100, "savefig.dpi": 100, "font.size": 9, "axes.grid": True, "grid.alpha": 0.3,
           "axes.spines.top": False, "axes.spines.right": False, "legend.fontsize": 7}
@@ -26,13 +26,10 @@ def _colors(names):
     return {n: cmap(i % 20) for i, n in enumerate(names)}
 
 
-def scenario_figures(data: dict, series: dict, out_dir, *, quick: bool = False) -> list[tuple[str, str]]:
-    """Write the figures of one scenario as PNG into ``out_dir``; returns ``[(file name, caption)]``.
-    ``quick``: only the convergence, error and invariant figures and the first time-history figure."""
-    from pathlib import Path
-
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+def render_figures(data: dict, series: dict, *, quick: bool = False) -> list[tuple[str, str, bytes]]:
+    """The figures of one scenario as PNG bytes, ``[(file name, caption, png)]`` (a worker draws them; the
+    parent writes them into the report folder). ``quick``: only the convergence, error and invariant figures and
+    the first time-history figure."""
     name = data["scenario"]
     figs = []
     with plt.rc_context(_STYLE), warnings.catch_warnings():
@@ -41,28 +38,86 @@ def scenario_figures(data: dict, series: dict, out_dir, *, quick: bool = False) 
         measured = any(r["attitude_error"] is not None for m in data["methods"].values() for r in m["runs"])
         if not measured:  # every run failed, or no reference: the checks say why, an empty plot would not
             return figs
-        figs.append(_save(_convergence(data, colors), out_dir, f"{name}-convergence.png",
-                          "Attitude error at the final time against the step (log-log), with slope guides for "
-                          "orders 1 and 4; below the shaded line errors are at the study's floor (round-off or "
-                          "the reference's own accuracy). Like seed 004 Fig. 12."))
+        figs.append(_png(_convergence(data, colors), f"{name}-convergence.png",
+                         "Attitude error at the final time against the step (log-log), with slope guides for "
+                         "orders 1 and 4; below the shaded line errors are at the study's floor (round-off or "
+                         "the reference's own accuracy). Like seed 004 Fig. 12."))
         if series:
-            figs.append(_save(_error_vs_time(series, colors), out_dir, f"{name}-error.png",
-                              "Attitude error against time for the finest step of each method."))
+            figs.append(_png(_error_vs_time(series, colors), f"{name}-error.png",
+                             "Attitude error against time for the finest step of each method."))
             if data.get("torque") is None:
-                figs.append(_save(_invariants(series, colors), out_dir, f"{name}-invariants.png",
-                                  "Relative drift of kinetic energy and world angular momentum (torque free: both "
-                                  "are conserved)."))
+                figs.append(_png(_invariants(series, colors), f"{name}-invariants.png",
+                                 "Relative drift of kinetic energy and world angular momentum (torque free: both "
+                                 "are conserved)."))
             if data.get("torque") is None and "euler-rk4" in data["methods"]:
-                figs += _euler_histories(data, series, out_dir, name, quick)
+                figs += _euler_histories(data, series, name, quick)
             if data.get("torque") is not None:
-                figs += _torqued_histories(data, series, out_dir, name)
+                figs += _torqued_histories(data, series, name)
     return figs
+
+
+def scenario_figures(data: dict, series: dict, out_dir, *, quick: bool = False) -> list[tuple[str, str]]:
+    """:func:`render_figures` written into ``out_dir`` (each file atomically); returns ``[(file name, caption)]``."""
+    from pathlib import Path
+
+    from .io import write_bytes_atomic
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    out = []
+    for file, caption, png in render_figures(data, series, quick=quick):
+        write_bytes_atomic(out_dir / file, png)
+        out.append((file, caption))
+    return out
 
 
 def new_figure(*args, **kwargs):
     """``plt.subplots`` in the report's style."""
     with plt.rc_context(_STYLE):
         return plt.subplots(*args, **kwargs)
+
+
+def _subplots(nrows=1, *, size=(7.5, 4.8), legend_outside=False, **kwargs):
+    """A figure with fixed margins in inches (room on the right for a legend outside the axes): one drawing
+    pass when saved, where ``bbox_inches="tight"`` costs a second one."""
+    fig, axes = plt.subplots(nrows, 1, figsize=size, **kwargs)
+    w, h = size
+    fig.subplots_adjust(left=0.85 / w, right=1 - (2.5 if legend_outside else 0.2) / w, top=1 - 0.35 / h,
+                        bottom=0.5 / h, hspace=0.12 if kwargs.get("sharex") else 0.3)
+    fig._xcheck_fixed = True
+    return fig, axes
+
+
+_SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def _decade_label(value, _pos=None) -> str:
+    """``10⁻¹²`` in plain Unicode for a log axis' decades ("" between them): matplotlib's default writes each
+    tick label as mathtext, which cost half the drawing time of a report's figures."""
+    if value <= 0:
+        return ""
+    k = np.log10(value)
+    if abs(k - round(k)) > 1e-9:
+        return ""
+    k = int(round(k))
+    return f"{value:g}" if 0 <= k <= 2 else f"10{str(k).translate(_SUPERSCRIPT)}"
+
+
+def _plain_log_labels(fig) -> None:
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            lo, hi = sorted(axis.get_view_interval())
+            if axis.get_scale() == "log" and lo > 0 and np.floor(np.log10(hi)) - np.ceil(np.log10(lo)) >= 1:
+                axis.set_major_formatter(FuncFormatter(_decade_label))
+                axis.set_minor_formatter(NullFormatter())
+
+
+def _savefig(fig, target, fmt: str) -> None:
+    _plain_log_labels(fig)
+    with plt.rc_context(_STYLE):
+        fig.savefig(target, format=fmt, bbox_inches=None if getattr(fig, "_xcheck_fixed", False) else "tight")
 
 
 def save_figure(fig, path) -> None:
@@ -73,8 +128,7 @@ def save_figure(fig, path) -> None:
     path = Path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        with plt.rc_context(_STYLE):
-            fig.savefig(tmp, format=path.suffix.lstrip(".").lower(), bbox_inches="tight")
+        _savefig(fig, tmp, path.suffix.lstrip(".").lower())
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
@@ -83,13 +137,25 @@ def save_figure(fig, path) -> None:
         plt.close(fig)
 
 
-def _save(fig, out_dir, file, caption):
-    save_figure(fig, out_dir / file)
-    return file, caption
+def _png(fig, file, caption) -> tuple[str, str, bytes]:
+    import io
+
+    from PIL import Image  # matplotlib's own dependency
+
+    buffer = io.BytesIO()
+    try:
+        _savefig(fig, buffer, "png")
+    finally:
+        plt.close(fig)
+    # a palette of 128 colours: a third of the bytes of matplotlib's RGBA, no visible change on line plots
+    image = Image.open(io.BytesIO(buffer.getvalue())).convert("RGB").quantize(128, method=Image.Quantize.FASTOCTREE)
+    buffer = io.BytesIO()
+    image.save(buffer, "PNG")
+    return file, caption, buffer.getvalue()
 
 
 def _convergence(data, colors):
-    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    fig, ax = _subplots(size=(7.5, 4.8), legend_outside=True)
     all_dt, all_e = [], []
     for i, (name, entry) in enumerate(data["methods"].items()):
         dt = np.array([r["dt"] for r in entry["runs"] if r["attitude_error"] is not None])
@@ -123,7 +189,7 @@ def _convergence(data, colors):
 
 
 def _error_vs_time(series, colors):
-    fig, ax = plt.subplots(figsize=(7.5, 3.6))
+    fig, ax = _subplots(size=(7.5, 3.6), legend_outside=True)
     for name, s in series.items():
         e = np.maximum(np.asarray(s["attitude_error"], float), 1e-17)
         ax.semilogy(s["t"], e, lw=1, color=colors.get(name), label=f"{name} (Δt = {s['dt']:.3g} s)")
@@ -134,7 +200,7 @@ def _error_vs_time(series, colors):
 
 
 def _invariants(series, colors):
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7.5, 4.8), sharex=True)
+    fig, (a1, a2) = _subplots(2, size=(7.5, 4.8), legend_outside=True, sharex=True)
     for name, s in series.items():
         a1.semilogy(s["t"], np.maximum(np.abs(s["energy_drift"]), 1e-18), lw=1, color=colors.get(name), label=name)
         a2.semilogy(s["t"], np.maximum(s["momentum_drift"], 1e-18), lw=1, color=colors.get(name))
@@ -152,7 +218,7 @@ def _quaternion_method(series):
     return next(iter(series), None)
 
 
-def _euler_histories(data, series, out_dir, name, quick=False):
+def _euler_histories(data, series, name, quick=False):
     """Seed 001 Figs. 13-23: Euler angles from the Euler-angle run and converted from a quaternion run,
     their rates, the body rates and the quaternion components."""
     seq = data["initial"].get("euler_sequence", "323")
@@ -165,7 +231,7 @@ def _euler_histories(data, series, out_dir, name, quick=False):
     ang_q = np.unwrap(ang_q, axis=0)
     labels = [f"angle {k + 1} (axis {seq[k]})" for k in range(3)] if seq != "323" else ["ψ", "θ", "φ"]
     se = series.get("euler-rk4")
-    fig, axes = plt.subplots(3, 1, figsize=(7.5, 6.0), sharex=True)
+    fig, axes = _subplots(3, size=(7.5, 6.0), sharex=True)
     for k, ax in enumerate(axes):
         ax.plot(sq["t"], np.degrees(ang_q[:, k]), lw=1.2, label=f"from {qm} (quaternions)")
         if se is not None and "euler" in se:
@@ -174,13 +240,13 @@ def _euler_histories(data, series, out_dir, name, quick=False):
     axes[0].legend(frameon=False)
     axes[-1].set_xlabel("t [s]")
     axes[0].set_title(f"{name}: Euler angles ({seq}), like seed 001 Figs. 13-15")
-    figs.append(_save(fig, out_dir, f"{name}-euler-angles.png",
+    figs.append(_png(fig, f"{name}-euler-angles.png",
                       "Euler angles from the Euler-angle integration and converted from the quaternion one "
                       "(seed 001 Figs. 13-15). Near the singularity the Euler-angle solution departs."))
     if quick:
         return figs
     # rates of the angles
-    fig, axes = plt.subplots(3, 1, figsize=(7.5, 6.0), sharex=True)
+    fig, axes = _subplots(3, size=(7.5, 6.0), sharex=True)
     rates_q = _safe_rates(ang_q, sq["omega"], seq)
     for k, ax in enumerate(axes):
         ax.plot(sq["t"], rates_q[:, k], lw=1.2, label=f"from {qm}")
@@ -189,10 +255,10 @@ def _euler_histories(data, series, out_dir, name, quick=False):
         ax.set_ylabel(f"d{labels[k]}/dt [rad/s]")
     axes[0].legend(frameon=False)
     axes[-1].set_xlabel("t [s]")
-    figs.append(_save(fig, out_dir, f"{name}-euler-rates.png",
+    figs.append(_png(fig, f"{name}-euler-rates.png",
                       "Rates of the Euler angles (seed 001 Figs. 16-18); undefined (gaps) at the singularity."))
     # body rates and quaternion components
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7.5, 5.2), sharex=True)
+    fig, (a1, a2) = _subplots(2, size=(7.5, 5.2), sharex=True)
     for k, c in enumerate("xyz"):
         a1.plot(sq["t"], sq["omega"][:, k], lw=1.1, label=f"ω{c}")
     a1.set_ylabel("body rate [rad/s]")
@@ -202,7 +268,7 @@ def _euler_histories(data, series, out_dir, name, quick=False):
     a2.set_ylabel(f"quaternion ({qm})")
     a2.set_xlabel("t [s]")
     a2.legend(frameon=False, ncol=4)
-    figs.append(_save(fig, out_dir, f"{name}-rates-quaternion.png",
+    figs.append(_png(fig, f"{name}-rates-quaternion.png",
                       "Body rates and quaternion components (seed 001 Figs. 19-23): smooth, with no singularity."))
     return figs
 
@@ -218,14 +284,14 @@ def _safe_rates(angles, omega, seq):
     return out
 
 
-def _torqued_histories(data, series, out_dir, name):
+def _torqued_histories(data, series, name):
     """Seed 004 Figs. 9-11: torque components, quaternion components, body rates in deg/s."""
     qm = _quaternion_method(series)
     figs = []
     if qm is None:
         return figs
     s = series[qm]
-    fig, axes = plt.subplots(3, 1, figsize=(7.5, 7.0), sharex=True)
+    fig, axes = _subplots(3, size=(7.5, 7.0), sharex=True)
     if "torque" in s:
         for k, c in enumerate("ξηζ"):
             axes[0].plot(s["t"], s["torque"][:, k] * 1e4, lw=1.1, label=f"t'{c}")
@@ -241,6 +307,6 @@ def _torqued_histories(data, series, out_dir, name):
     axes[2].set_xlabel("t [s]")
     axes[2].legend(frameon=False, ncol=3)
     axes[0].set_title(f"{name}: {qm}, Δt = {s['dt']:.3g} s (like seed 004 Figs. 9-11)")
-    figs.append(_save(fig, out_dir, f"{name}-histories.png",
+    figs.append(_png(fig, f"{name}-histories.png",
                       "Torque, Euler parameters and body rates in body components (seed 004 Figs. 9-11)."))
     return figs

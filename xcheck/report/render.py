@@ -1,5 +1,5 @@
 """The report folder: ``results.json``, ``report.md``, a self-contained ``index.html`` (plots embedded),
-the figures as PNG and the finest runs' trajectories as CSV. Written into a hidden temporary folder and
+the figures as PNG and, when asked for (``--trajectories``), the finest runs' trajectories as CSV. Written into a hidden temporary folder and
 renamed into place only when complete; ``latest`` then points at it."""
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from ..versions import machine, versions
 from .document import Cell, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
 from .io import write_json_atomic, write_text_atomic, write_trajectory_csv
 
-__all__ = ["write_report", "report_document", "REPORT_SCHEMA", "verdict_of"]
+__all__ = ["write_report", "draw_figures", "report_document", "REPORT_SCHEMA", "verdict_of"]
 
 REPORT_SCHEMA = "xcheck.report/1"
 
@@ -38,17 +38,28 @@ def _dt(dt):
 
 # ------------------------------------------------------------------------------------------------
 def write_report(studies, out_root, *, stamp: str | None = None, throughput=None, wall_time=None,
-                 quick=False, pool=None) -> Path:
+                 quick=False, pool=None, figures: dict | None = None, trajectories: bool = False,
+                 marks: list | None = None) -> Path:
     """Write the report of ``studies`` (list of StudyResult) under ``out_root/<stamp>/`` atomically and
-    point ``out_root/latest`` at it; figures are drawn in ``pool`` when given. Returns the report folder.
+    point ``out_root/latest`` at it. Returns the report folder.
+
+    Figures: ``figures`` maps a scenario to its :func:`~xcheck.report.plots.render_figures` result, or to a
+    future of it (drawn in a worker while other studies ran); the others are drawn here, in ``pool`` when
+    given. ``trajectories``: also the sampled finest run of every method as CSV
+    (``trajectories/<scenario>/<method>.csv``, ~4 MB a scenario). ``marks``: a list to which ``(phase,
+    time.perf_counter())`` pairs are appended (``xcheck report --timings``).
 
     The report is written into a hidden ``.incomplete-<stamp>-<host>-<pid>`` folder and renamed into place
     when complete: on any error or interrupt the workers are stopped first and the folder removed; a
     folder left by a killed run (its process gone) is removed by the next report into ``out_root``. Two
     reports finishing in the same second get distinct names (``<stamp>-2``)."""
-    from ..pool import stop_pool
-    from .plots import scenario_figures
+    import time
 
+    from ..pool import stop_pool
+    from .io import write_bytes_atomic
+
+    marks = [] if marks is None else marks
+    figures = dict(figures or {})
     out_root = Path(out_root)
     out_root.mkdir(parents=True, exist_ok=True)
     remove_stale(out_root)
@@ -57,22 +68,30 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir()
     try:
-        if pool is not None:
-            futures = {st.name: pool.submit(scenario_figures, st.data, st.series, tmp / "plots", quick=quick)
-                       for st in studies}
         for st in studies:
+            if st.name not in figures:
+                figures[st.name] = (pool.submit(draw_figures, st.data, st.series, quick) if pool is not None
+                                    else draw_figures(st.data, st.series, quick))
+        for st in studies if trajectories else ():
             _write_csvs(st, tmp / "trajectories" / st.name)
-        figures = {name: fut.result() for name, fut in futures.items()} if pool is not None else {
-            st.name: scenario_figures(st.data, st.series, tmp / "plots", quick=quick) for st in studies}
+        captions = {}
+        for st in studies:
+            drawn = figures[st.name]
+            drawn = drawn.result() if hasattr(drawn, "result") else drawn
+            for file, _, png in drawn:
+                write_bytes_atomic(tmp / "plots" / file, png)
+            captions[st.name] = [(file, caption) for file, caption, _ in drawn]
+        marks.append(("figures", time.perf_counter()))
         results = {"schema": REPORT_SCHEMA, "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
                    "quick": quick, "versions": versions(), "machine": machine(),
                    "wall_time": wall_time, "passed": all(st.passed for st in studies),
                    "scenarios": [st.data for st in studies], "throughput": throughput or []}
         write_json_atomic(tmp / "results.json", results)
-        document = report_document(studies, results, figures)
+        document = report_document(studies, results, captions)
         write_text_atomic(tmp / "report.md", to_markdown(document))
         write_text_atomic(tmp / "index.html", to_html(document, tmp / "plots", title="xcheck cross-check report"))
         final = _rename_into_place(tmp, out_root, stamp)
+        marks.append(("files written", time.perf_counter()))
     except BaseException:
         if pool is not None:
             stop_pool(pool)  # a worker still drawing would recreate the folder after it is removed
@@ -80,6 +99,13 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
         raise
     _point_latest(out_root, final)
     return final
+
+
+def draw_figures(data: dict, series: dict, quick: bool = False) -> list[tuple[str, str, bytes]]:
+    """:func:`xcheck.report.plots.render_figures`, importing matplotlib only where it runs (a worker)."""
+    from .plots import render_figures
+
+    return render_figures(data, series, quick=quick)
 
 
 _INCOMPLETE = ".incomplete-"
