@@ -60,3 +60,45 @@ def test_steady_spin_invariants_are_exact():
     np.testing.assert_allclose(world_momentum(I, q, w), np.tile([0, 0, 6.0], (11, 1)), atol=1e-15)
     drift = invariant_drift(I, Trajectory(t=t, q=q, omega=w))
     assert drift["energy_drift"] == 0 and drift["momentum_drift"] < 1e-15 and drift["norm_drift"] < 1e-15
+
+
+# ------------------------------------------------------------------------------------------------
+# the largest step within a tolerance (issue 10)
+# ------------------------------------------------------------------------------------------------
+from xcheck.metrics import TOLERANCES, largest_step_within, tolerance_key  # noqa: E402
+
+STEP_DTS = [0.1 / 2**k for k in range(6)]
+
+
+def power_law(p=4, c=1e-2):
+    """e = c (dt / 0.1)^p, wall = 1e-3 (0.1 / dt): on the log-log line exactly."""
+    return [c * (dt / 0.1) ** p for dt in STEP_DTS], [1e-3 * 0.1 / dt for dt in STEP_DTS]
+
+
+def test_step_within_is_exact_on_a_power_law():
+    """Truth: e = 1e-2 (dt/0.1)^4 = 1e-6 at dt = 0.1 * 1e-4^(1/4) = 0.01 s, where the wall time is 1e-2 s."""
+    errors, walls = power_law()
+    w = largest_step_within(STEP_DTS, errors, walls, 1e-6)
+    assert w.how == "interpolated"
+    assert w.dt == pytest.approx(0.01, rel=1e-12) and w.wall_time == pytest.approx(1e-2, rel=1e-12)
+    assert [tolerance_key(t) for t in TOLERANCES] == ["1e-03", "1e-06", "1e-09"]
+
+
+def test_step_within_at_the_ends():
+    errors, walls = power_law()
+    coarse = largest_step_within(STEP_DTS, errors, walls, 1.0)  # every step within: the coarsest, no extrapolation
+    assert (coarse.dt, coarse.wall_time, coarse.how) == (0.1, pytest.approx(1e-3), "tested")
+    none = largest_step_within(STEP_DTS, errors, walls, 1e-20)  # not even the finest
+    assert (none.dt, none.wall_time, none.how) == (None, None, "none")
+
+
+def test_a_failed_or_erratic_step_bounds_the_range():
+    """A failed run (None) counts as outside; a coarser step that happens to be within again does not count."""
+    errors, walls = power_law()
+    errors[2] = None  # dt = 0.025 failed
+    w = largest_step_within(STEP_DTS, errors, walls, 1e-3)
+    assert (w.dt, w.how) == (STEP_DTS[3], "tested")  # 0.0125: the last within before the failure
+    errors, walls = power_law()
+    errors[4] = 1.0  # an outlier at dt = 0.00625: the steps above it are not trusted
+    w = largest_step_within(STEP_DTS, errors, walls, 1e-6)
+    assert w.how == "interpolated" and STEP_DTS[5] < w.dt < STEP_DTS[4]

@@ -66,11 +66,13 @@ def test_markdown_and_html_show_the_same_tables_and_figures(report):
     md = (report / "report.md").read_text()
     parser = _Tables()
     parser.feed((report / "index.html").read_text())
-    # front table, checks, methods, throughput
-    assert len(parser.tables) == 4
+    # front table, checks, methods, what a tolerance costs, throughput
+    assert len(parser.tables) == 5
     assert markdown_tables(md) == parser.tables
     assert parser.tables[2]["header"] == ["method", "expected", "observed", "1/8", "1/16", "1/32", "steps/s"]
     assert parser.tables[2]["rows"] == 4  # header + 3 methods
+    assert parser.tables[3]["header"] == ["method", "within 1e-03 rad", "within 1e-06 rad", "within 1e-09 rad"]
+    assert parser.tables[3]["rows"] == 4
     md_figures = re.findall(r"^!\[(.*)\]\(plots/(.*)\)$", md, flags=re.M)
     assert [caption for caption, _ in md_figures] == parser.figures and len(parser.figures) >= 3
     assert all((report / "plots" / file).is_file() for _, file in md_figures)

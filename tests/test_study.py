@@ -90,3 +90,61 @@ def test_json_keeps_the_schema(scenario):
 def test_run_study_refuses_bad_steps(scenario):
     with pytest.raises(ValueError, match="steps: the step 50 s is longer than the duration"):
         run_study(scenario, methods=["lie-rkmk4"], steps=[50.0], workers=1)
+
+
+# ------------------------------------------------------------------------------------------------
+# what a tolerance costs, and engines against ours without a reference (issue 10)
+# ------------------------------------------------------------------------------------------------
+def test_step_within_in_the_json(scenario):
+    """Truth: runs(4) has max error 1e-2 dt^4: within 1e-3 rad at every step (the coarsest, 1/8 s: "tested"),
+    1e-6 rad up to dt = (1e-4)^(1/4) = 0.1 s and 1e-9 rad up to (1e-7)^(1/4) = 0.01778 s (interpolated)."""
+    data = assemble(scenario, STEPS, [result("lie-rkmk4", runs(4))]).data
+    m = data["methods"]["lie-rkmk4"]
+    assert set(m["largest_step_within"]) == {"1e-03", "1e-06", "1e-09"}
+    assert m["largest_step_within"]["1e-03"] == 0.125 and m["cost_within"]["1e-03"]["how"] == "tested"
+    assert m["largest_step_within"]["1e-06"] == pytest.approx(0.1, rel=1e-12)
+    assert m["largest_step_within"]["1e-09"] == pytest.approx(1e-7 ** 0.25, rel=1e-12)
+    assert m["cost_within"]["1e-09"]["how"] == "interpolated" and m["cost_within"]["1e-09"]["wall_time"] == pytest.approx(0.01, rel=1e-12)
+    assert all("wall_time" in r for r in m["runs"]) and data["comparisons"] == []
+
+
+def test_comparison_partners(scenario):
+    from xcheck.study import comparison_partner
+
+    every = list(RUNNERS)
+    assert comparison_partner(scenario, "mujoco-rk4", every) == "lie-rkmk4"  # same order, the reference method
+    assert comparison_partner(scenario, "mujoco-euler", every) == "lie-rkmk4"  # no first-order method of ours
+    assert comparison_partner(scenario, "mujoco-rk4", ["formulation-2", "mujoco-rk4"]) == "formulation-2"
+    assert comparison_partner(scenario, "mujoco-rk4", ["lie-thesis-172", "mujoco-rk4"]) == "lie-thesis-172"
+    assert comparison_partner(scenario, "lie-rkmk4", every) is None  # ours are compared with the reference
+    assert comparison_partner(scenario, "mujoco-rk4", ["mujoco-rk4", "scipy-rk45"]) is None
+
+
+def test_direct_comparison_is_the_trajectories_difference():
+    """Truth: both trajectories run here, their largest attitude difference over the grid, bit for bit; and
+    without a reference, MuJoCo's Euler differs from lie-rkmk4 by about its own error (within 1 %)."""
+    import numpy as np
+
+    from xcheck import rotations as rot
+    from xcheck.study import run_context
+
+    sc = resolve_scenario("gyroscope-nonsingular")
+    steps = [1 / 64, 1 / 128]
+    st = run_study(sc, methods=["lie-rkmk4", "mujoco-rk4", "mujoco-euler"], steps=steps, workers=1)
+    got = {(c["a"], c["b"], c["dt"]): c["max_attitude_difference"] for c in st.data["comparisons"]}
+    assert set(got) == {(a, "lie-rkmk4", dt) for a in ("mujoco-rk4", "mujoco-euler") for dt in steps}
+    ctx = run_context(sc)
+    for (a, b, dt), value in got.items():
+        ta, tb = RUNNERS[a].run(ctx, dt), RUNNERS[b].run(ctx, dt)
+        assert value == float(np.max(rot.attitude_error(ta.q, tb.q)))
+    assert got[("mujoco-rk4", "lie-rkmk4", 1 / 128)] < 1e-12  # MuJoCo's RK4 on a free body is RKMK4 (measured)
+    euler = st.methods["mujoco-euler"].runs[-1]
+    assert got[("mujoco-euler", "lie-rkmk4", 1 / 128)] == pytest.approx(euler.max_attitude_error, rel=1e-2)
+
+
+def test_a_coarse_step_failure_is_worded_as_such(scenario):
+    rs = runs(4)
+    rs[0] = Run.failed(STEPS[0], "failed", "blew up", 0.0)
+    st = assemble(scenario, STEPS, [result("lie-rkmk4", rs)])
+    m = st.methods["lie-rkmk4"]
+    assert m.status == "failed" and m.verdict == "pass" and m.status_text == "coarse step unstable"

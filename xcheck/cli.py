@@ -118,7 +118,7 @@ def _print_study(st) -> None:
         obs = f"{m.observed_order:.2f}" if m.observed_order is not None else "—"
         exp = m.expected_order if m.expected_order is not None else "adaptive"
         err_text = "—" if m.finest is None else format(m.finest.attitude_error, ".2e")
-        print(f"  {name:22s} {exp!s:>8s} {obs:>8s} {err_text:>13s}  {m.status}")
+        print(f"  {name:22s} {exp!s:>8s} {obs:>8s} {err_text:>13s}  {m.status_text}")
     for c in st.checks:
         if not c.passed:
             print(f"  FAILED {c.name}: {c.note}")

@@ -19,6 +19,10 @@ __all__ = [
     "OrderFit",
     "ORDER_CEILING",
     "ORDER_FLOOR",
+    "TOLERANCES",
+    "tolerance_key",
+    "StepWithin",
+    "largest_step_within",
 ]
 
 #: Errors above this [rad] are pre-asymptotic (beyond the small-error regime where e ~ C dt^p holds;
@@ -120,3 +124,56 @@ def observed_order(dts, errors, *, ceiling: float = ORDER_CEILING, floor: float 
     finest = local[-points:]
     return OrderFit(float(np.median(finest)), used_dt.tolist(), local,
                     f"median of the local orders between dt = {used_dt[-len(finest) - 1]:.4g} and {used_dt[-1]:.4g} s")
+
+
+# ------------------------------------------------------------------------------------------------
+# what a tolerance costs
+# ------------------------------------------------------------------------------------------------
+#: The attitude tolerances [rad] of the step-size table (JSON keys ``tolerance_key``: "1e-03", ...).
+TOLERANCES = (1e-3, 1e-6, 1e-9)
+
+
+def tolerance_key(tol: float) -> str:
+    """``1e-06`` for 1e-6: the JSON key of a tolerance."""
+    return f"{tol:.0e}"
+
+
+@dataclass
+class StepWithin:
+    """The largest step [s] at which a method stays within a tolerance over the run, and the wall time [s] a
+    run at that step costs. ``how``: ``"interpolated"`` (on the log-log line between the two tested steps that
+    bracket the tolerance), ``"tested"`` (the coarsest tested step is within: a larger one may be too) or
+    ``"none"`` (not even the finest tested step is; ``dt`` and ``wall_time`` are None)."""
+
+    dt: float | None
+    wall_time: float | None
+    how: str
+
+    def to_json(self) -> dict:
+        return {"dt": self.dt, "wall_time": self.wall_time, "how": self.how}
+
+
+def largest_step_within(dts, errors, wall_times, tol: float) -> StepWithin:
+    """The largest step at which the error stays within ``tol`` (see :class:`StepWithin`).
+
+    On the steps from fine to coarse (a failed run, ``None`` error, counts as outside), the steps are within
+    up to the first one that is not; between that one (``dt_a``, ``e_a > tol``) and the last within (``dt_b``,
+    ``e_b <= tol``) the error is taken as a power of the step, ``log e`` linear in ``log dt`` (exact for a
+    method in its asymptotic range), and solved for ``e = tol``; the wall time likewise (it goes as
+    ``1/dt``). The errors should be maxima over the run (the tolerance holds over the whole duration)."""
+    rows = sorted(zip(dts, errors, wall_times), key=lambda r: r[0])
+    if not rows or rows[0][1] is None or not rows[0][1] <= tol:
+        return StepWithin(None, None, "none")
+    k = 0
+    while k + 1 < len(rows) and rows[k + 1][1] is not None and rows[k + 1][1] <= tol:
+        k += 1
+    dt_b, e_b, w_b = rows[k]
+    if k + 1 == len(rows) or rows[k + 1][1] is None or not np.isfinite(rows[k + 1][1]) or e_b <= 0:
+        return StepWithin(float(dt_b), None if w_b is None else float(w_b), "tested")
+    dt_a, e_a, w_a = rows[k + 1]
+    s = (np.log(tol) - np.log(e_b)) / (np.log(e_a) - np.log(e_b))  # 0 at dt_b, 1 at dt_a
+    dt = float(np.exp(np.log(dt_b) + s * (np.log(dt_a) - np.log(dt_b))))
+    wall = None
+    if w_a and w_b:
+        wall = float(np.exp(np.log(w_b) + s * (np.log(w_a) - np.log(w_b))))
+    return StepWithin(dt, wall, "interpolated")

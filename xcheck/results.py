@@ -93,6 +93,7 @@ class MethodResult:
     order_note: str = ""
     local_orders: list = field(default_factory=list)
     verdict: str = "info"
+    within: dict = field(default_factory=dict)  # tolerance key ("1e-06") -> metrics.StepWithin
 
     @property
     def status(self) -> str:
@@ -100,6 +101,14 @@ class MethodResult:
         if all(r.ok for r in self.runs):
             return "ok"
         return "singular" if any(r.status == "singular" for r in self.runs) else "failed"
+
+    @property
+    def status_text(self) -> str:
+        """The status in words for a table: a method whose verdict holds although a coarse step failed says
+        so ("coarse step unstable"), instead of a bare "failed"."""
+        if self.status != "ok" and self.verdict in ("pass", "info") and self.finest is not None:
+            return "coarse step singular" if self.status == "singular" else "coarse step unstable"
+        return self.status
 
     @property
     def finest(self) -> Run | None:
@@ -110,4 +119,6 @@ class MethodResult:
     def to_json(self) -> dict:
         return {"engine": self.engine, "expected_order": self.expected_order, "observed_order": self.observed_order,
                 "order_note": self.order_note, "local_orders": self.local_orders, "status": self.status,
-                "runs": [r.to_json() for r in self.runs], "verdict": self.verdict}
+                "runs": [r.to_json() for r in self.runs], "verdict": self.verdict,
+                "largest_step_within": {k: w.dt for k, w in self.within.items()},
+                "cost_within": {k: w.to_json() for k, w in self.within.items()}}

@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import rotations as rot
-from .metrics import ORDER_FLOOR, errors_against, invariant_drift, observed_order
+from .metrics import (ORDER_FLOOR, TOLERANCES, errors_against, invariant_drift, largest_step_within,
+                      observed_order, tolerance_key)
 from .pool import worker_pool
 from .reference import ReferenceFailure, dop853_solution, exact_torque_free
 from .results import Check, MethodResult, Run
@@ -42,6 +43,7 @@ class StudyResult:
     order_floor: float
     quick: bool = False
     series: dict = field(default_factory=dict)
+    comparisons: list = field(default_factory=list)  # {"a", "b", "dt", "max_attitude_difference"}
     versions: dict = field(default_factory=versions)
 
     @property
@@ -61,11 +63,30 @@ class StudyResult:
                             "euler_sequence": sc.sequence},
                 "quick": self.quick, "steps": list(self.steps), "order_floor": self.order_floor,
                 "versions": self.versions, "methods": {n: m.to_json() for n, m in self.methods.items()},
-                "checks": [c.to_json() for c in self.checks], "passed": self.passed}
+                "checks": [c.to_json() for c in self.checks], "passed": self.passed,
+                "comparisons": list(self.comparisons)}
 
 
 def default_methods(scenario: Scenario) -> list[str]:
     return list(scenario.methods) if scenario.methods else list(RUNNERS)
+
+
+def comparison_partner(scenario: Scenario, method: str, methods) -> str | None:
+    """Which of our methods an engine's method is compared with directly, trajectory against trajectory at
+    the same step (no reference needed): one of the same order, the scenario's ``reference_method`` first,
+    then ``lie-rkmk4``; for an engine method of an order none of ours has (MuJoCo's first-order ones), our
+    highest-order method, so that the difference measures the engine's own error. None for our methods, or
+    when the study has none of ours to compare with."""
+    runner = RUNNERS[method]
+    if runner.engine == "xcheck":
+        return None
+    ours = [m for m in methods if RUNNERS[m].engine == "xcheck" and RUNNERS[m].expected_order is not None
+            and m not in scenario.checks.get("expected_to_fail", ())]
+    if not ours:
+        return None
+    preferred = sorted(ours, key=lambda m: (m != scenario.reference_method, m != "lie-rkmk4"))
+    same = [m for m in preferred if RUNNERS[m].expected_order == runner.expected_order]
+    return same[0] if same else max(preferred, key=lambda m: RUNNERS[m].expected_order)
 
 
 def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = False, workers: int | None = None,
@@ -86,7 +107,7 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
         check_steps(steps, scenario.duration)
     except ValueError as exc:
         raise ValueError(f"steps: {exc}") from None
-    tasks = [(scenario, m, tuple(steps)) for m in methods]
+    tasks = [(scenario, m, tuple(steps), comparison_partner(scenario, m, methods)) for m in methods]
     results = _map(_run_method, tasks, workers=workers, progress=progress, pool=pool,
                    labels=[f"{scenario.name}: {m}" for m in methods])
     return assemble(scenario, steps, results, quick=quick and not steps_given)
@@ -102,7 +123,8 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
         methods = default_methods(sc)
         steps = sorted((float(s) for s in (sc.quick_steps if quick else sc.steps)), reverse=True)
         plans.append((sc, methods, steps))
-    tasks = [(sc, m, tuple(steps)) for sc, methods, steps in plans for m in methods]
+    tasks = [(sc, m, tuple(steps), comparison_partner(sc, m, methods)) for sc, methods, steps in plans
+             for m in methods]
     labels = [f"{sc.name}: {m}" for sc, methods, _ in plans for m in methods]
     owner = [k for k, (_, methods, _) in enumerate(plans) for _ in methods]
     first = np.cumsum([0] + [len(methods) for _, methods, _ in plans])
@@ -152,6 +174,7 @@ def _map(fn, tasks, *, workers, progress, pool, labels, on_result=None):
 # in a worker
 # ------------------------------------------------------------------------------------------------
 _CACHE: dict = {}
+_PARTNER_RUNS: dict = {}  # (scenario key, partner, dt) -> Trajectory | None (see _difference)
 
 
 def _key(scenario: Scenario):
@@ -235,8 +258,9 @@ def scenario_reference(scenario: Scenario) -> _Reference:
     return _cached("reference", scenario, lambda: _Reference(scenario, run_context(scenario)))
 
 
-def _run_method(scenario: Scenario, method: str, steps: tuple) -> dict:
-    """All steps of one method (in a worker): per-run metrics, and the sampled finest good run."""
+def _run_method(scenario: Scenario, method: str, steps: tuple, partner: str | None = None) -> dict:
+    """All steps of one method (in a worker): per-run metrics, the sampled finest good run, and with a
+    ``partner`` (:func:`comparison_partner`) the largest attitude difference between the two at every step."""
     import warnings
 
     warnings.filterwarnings("ignore", category=UserWarning, module="xcheck.models")
@@ -245,10 +269,10 @@ def _run_method(scenario: Scenario, method: str, steps: tuple) -> dict:
         ref = scenario_reference(scenario)
     except ReferenceFailure as exc:  # nothing can be measured: the study fails with the reason
         return {"method": method, "runs": [Run.failed(dt, "failed", f"no reference: {exc}", 0.0) for dt in steps],
-                "series": None, "reference_error": str(exc)}
+                "series": None, "reference_error": str(exc), "comparisons": []}
     runner = RUNNERS[method]
     torque_free = ctx.torque is None
-    runs, finest = [], None
+    runs, finest, comparisons = [], None, []
     for dt in steps:
         t0 = time.perf_counter()
         try:
@@ -273,8 +297,31 @@ def _run_method(scenario: Scenario, method: str, steps: tuple) -> dict:
             continue
         runs.append(run)
         finest = (dt, traj)
+        if partner is not None:
+            difference = _difference(scenario, ctx, traj, partner, dt)
+            if difference is not None:
+                comparisons.append({"a": method, "b": partner, "dt": dt, "max_attitude_difference": difference})
     series = _sample(finest, ref, ctx) if finest is not None else None
-    return {"method": method, "runs": runs, "series": series}
+    return {"method": method, "runs": runs, "series": series, "comparisons": comparisons}
+
+
+def _difference(scenario, ctx, traj, partner: str, dt: float) -> float | None:
+    """The largest attitude difference [rad] over the run between ``traj`` and ``partner`` at the same step
+    (None when the partner's run did not complete). The partner's runs are kept per process: every engine
+    method of the scenario is compared with the same one."""
+    key = (_key(scenario), partner, dt)
+    if key not in _PARTNER_RUNS:
+        if any(k[0] != key[0] for k in _PARTNER_RUNS):  # another scenario: keep one scenario's runs only
+            _PARTNER_RUNS.clear()
+        try:
+            _PARTNER_RUNS[key] = RUNNERS[partner].run(ctx, dt)
+        except ValueError:
+            _PARTNER_RUNS[key] = None
+    other = _PARTNER_RUNS[key]
+    if other is None or not other.ok or len(other.t) != len(traj.t) or not np.allclose(other.t, traj.t, rtol=0, atol=1e-12):
+        return None
+    value = float(np.max(rot.attitude_error(traj.q, other.q)))
+    return value if math.isfinite(value) else None
 
 
 def _subset(traj, mask):
@@ -325,9 +372,12 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
         name = res["method"]
         runner = RUNNERS[name]
         fit = observed_order([r.dt for r in res["runs"]], [r.attitude_error for r in res["runs"]], floor=floor)
+        within = {tolerance_key(tol): largest_step_within(
+            [r.dt for r in res["runs"]], [r.max_attitude_error if r.ok else None for r in res["runs"]],
+            [r.wall_time for r in res["runs"]], tol) for tol in TOLERANCES}
         methods[name] = MethodResult(name=name, engine=runner.engine, expected_order=runner.expected_order,
                                      runs=res["runs"], observed_order=fit.order, order_note=fit.note,
-                                     local_orders=fit.local_orders)
+                                     local_orders=fit.local_orders, within=within)
         if res["series"] is not None:
             series[name] = res["series"]
     reference_error = next((res["reference_error"] for res in results if res.get("reference_error")), None)
@@ -338,8 +388,9 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
         checks = _checks(scenario, methods, scenario.checks, quick)
     for m in methods.values():
         m.verdict = _verdict(m.name, checks)
+    comparisons = [c for res in results for c in res.get("comparisons", ())]
     return StudyResult(scenario=scenario, steps=list(steps), methods=methods, checks=checks, order_floor=floor,
-                       quick=quick, series=series)
+                       quick=quick, series=series, comparisons=comparisons)
 
 
 def _verdict(method: str, checks) -> str:

@@ -19,6 +19,9 @@ __all__ = ["render_figures", "scenario_figures", "new_figure", "save_figure"]
 _STYLE = {"figure.dpi": 100, "savefig.dpi": 100, "font.size": 9, "axes.grid": True, "grid.alpha": 0.3,
           "axes.spines.top": False, "axes.spines.right": False, "legend.fontsize": 7}
 _MARKERS = "osD^v<>pPXh*"
+# The report's style, set once for the process (a rc_context per figure deep-copies every parameter: a tenth of
+# the drawing time). Figures are drawn by workers, or by the command that writes them: no one else's style to keep.
+matplotlib.rcParams.update(_STYLE)
 
 
 def _colors(names):
@@ -28,29 +31,36 @@ def _colors(names):
 
 def render_figures(data: dict, series: dict, *, quick: bool = False) -> list[tuple[str, str, bytes]]:
     """The figures of one scenario as PNG bytes, ``[(file name, caption, png)]`` (a worker draws them; the
-    parent writes them into the report folder). ``quick``: only the convergence, error and invariant figures and
-    the first time-history figure."""
+    parent writes them into the report folder). ``quick``: without the time histories of the seeds' figures."""
     name = data["scenario"]
     figs = []
-    with plt.rc_context(_STYLE), warnings.catch_warnings():
+    with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         colors = _colors(list(data["methods"]))
         measured = any(r["attitude_error"] is not None for m in data["methods"].values() for r in m["runs"])
         if not measured:  # every run failed, or no reference: the checks say why, an empty plot would not
             return figs
-        figs.append(_png(_convergence(data, colors), f"{name}-convergence.png",
-                         "Attitude error at the final time against the step (log-log), with slope guides for "
-                         "orders 1 and 4; below the shaded line errors are at the study's floor (round-off or "
-                         "the reference's own accuracy). Like seed 004 Fig. 12."))
+        figs.append(_png(_convergence_and_cost(data, colors), f"{name}-convergence.png",
+                         "Left: attitude error at the final time against the step (log-log), with slope guides "
+                         "for orders 1 and 4; below the shaded line errors are at the study's floor (round-off or "
+                         "the reference's own accuracy); like seed 004 Fig. 12. Right: the same errors against the "
+                         "wall time of each run, work against precision (lower left is better); dotted lines at "
+                         "the tolerances of the step-size table."))
+        if data.get("comparisons"):
+            figs.append(_png(_comparisons(data, colors), f"{name}-direct.png",
+                             "Direct cross-check, no reference: the largest attitude difference over the run "
+                             "between each engine method and one of ours at the same step (same order where we "
+                             "have one). It shrinks at the lower of the two orders until round-off."))
         if series:
-            figs.append(_png(_error_vs_time(series, colors), f"{name}-error.png",
-                             "Attitude error against time for the finest step of each method."))
-            if data.get("torque") is None:
-                figs.append(_png(_invariants(series, colors), f"{name}-invariants.png",
-                                 "Relative drift of kinetic energy and world angular momentum (torque free: both "
-                                 "are conserved)."))
+            torque_free = data.get("torque") is None
+            figs.append(_png(_errors_in_time(series, colors, torque_free), f"{name}-error.png",
+                             "Attitude error against time for the finest step of each method" +
+                             ("; below it the relative drift of kinetic energy and of world angular momentum "
+                              "(torque free: both are conserved)." if torque_free else ".")))
+            if quick:  # a fast look: the time histories of the seeds are in the full report
+                return figs
             if data.get("torque") is None and "euler-rk4" in data["methods"]:
-                figs += _euler_histories(data, series, name, quick)
+                figs += _euler_histories(data, series, name)
             if data.get("torque") is not None:
                 figs += _torqued_histories(data, series, name)
     return figs
@@ -73,22 +83,25 @@ def scenario_figures(data: dict, series: dict, out_dir, *, quick: bool = False) 
 
 def new_figure(*args, **kwargs):
     """``plt.subplots`` in the report's style."""
-    with plt.rc_context(_STYLE):
-        return plt.subplots(*args, **kwargs)
+    return plt.subplots(*args, **kwargs)
 
 
-def _subplots(nrows=1, *, size=(7.5, 4.8), legend_outside=False, **kwargs):
+def _subplots(nrows=1, ncols=1, *, size=(7.5, 4.8), legend_outside=False, **kwargs):
     """A figure with fixed margins in inches (room on the right for a legend outside the axes): one drawing
     pass when saved, where ``bbox_inches="tight"`` costs a second one."""
-    fig, axes = plt.subplots(nrows, 1, figsize=size, **kwargs)
+    fig, axes = plt.subplots(nrows, ncols, figsize=size, **kwargs)
     w, h = size
     fig.subplots_adjust(left=0.85 / w, right=1 - (2.5 if legend_outside else 0.2) / w, top=1 - 0.35 / h,
-                        bottom=0.5 / h, hspace=0.12 if kwargs.get("sharex") else 0.3)
+                        bottom=0.5 / h, hspace=0.12 if kwargs.get("sharex") else 0.3, wspace=0.08)
     fig._xcheck_fixed = True
     return fig, axes
 
 
 _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def _power(k: int) -> str:
+    return f"{10.0 ** k:g}" if 0 <= k <= 2 else f"10{str(k).translate(_SUPERSCRIPT)}"
 
 
 def _decade_label(value, _pos=None) -> str:
@@ -97,27 +110,38 @@ def _decade_label(value, _pos=None) -> str:
     if value <= 0:
         return ""
     k = np.log10(value)
-    if abs(k - round(k)) > 1e-9:
+    return _power(int(round(k))) if abs(k - round(k)) <= 1e-9 else ""
+
+
+def _minor_label(value, _pos=None) -> str:
+    """``2×10⁻³`` and ``5×10⁻³`` between the decades of a short log axis (plain text, as above)."""
+    if value <= 0:
         return ""
-    k = int(round(k))
-    return f"{value:g}" if 0 <= k <= 2 else f"10{str(k).translate(_SUPERSCRIPT)}"
+    k = int(np.floor(np.log10(value) + 1e-9))
+    m = value / 10.0 ** k
+    return f"{m:.0f}×{_power(k)}" if min(abs(m - 2), abs(m - 5)) < 1e-6 else ""
 
 
 def _plain_log_labels(fig) -> None:
-    from matplotlib.ticker import FuncFormatter, NullFormatter
+    """Every log axis labelled in plain text (decades; 2 and 5 between them where it spans less than two
+    decades), and minor ticks only where it spans few decades (each tick is an object to lay out)."""
+    from matplotlib.ticker import FuncFormatter, NullFormatter, NullLocator
 
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
             lo, hi = sorted(axis.get_view_interval())
-            if axis.get_scale() == "log" and lo > 0 and np.floor(np.log10(hi)) - np.ceil(np.log10(lo)) >= 1:
-                axis.set_major_formatter(FuncFormatter(_decade_label))
-                axis.set_minor_formatter(NullFormatter())
+            if axis.get_scale() != "log" or lo <= 0:
+                continue
+            decades = np.log10(hi) - np.log10(lo)
+            axis.set_major_formatter(FuncFormatter(_decade_label))
+            axis.set_minor_formatter(FuncFormatter(_minor_label) if decades < 2 else NullFormatter())
+            if decades > 5:
+                axis.set_minor_locator(NullLocator())
 
 
 def _savefig(fig, target, fmt: str) -> None:
     _plain_log_labels(fig)
-    with plt.rc_context(_STYLE):
-        fig.savefig(target, format=fmt, bbox_inches=None if getattr(fig, "_xcheck_fixed", False) else "tight")
+    fig.savefig(target, format=fmt, bbox_inches=None if getattr(fig, "_xcheck_fixed", False) else "tight")
 
 
 def save_figure(fig, path) -> None:
@@ -138,24 +162,28 @@ def save_figure(fig, path) -> None:
 
 
 def _png(fig, file, caption) -> tuple[str, str, bytes]:
+    """The figure as PNG bytes with a palette of 128 colours (a third of the bytes of matplotlib's RGBA, no
+    visible change on line plots), drawn once and encoded once."""
     import io
 
     from PIL import Image  # matplotlib's own dependency
 
-    buffer = io.BytesIO()
     try:
-        _savefig(fig, buffer, "png")
+        _plain_log_labels(fig)
+        fig.canvas.draw()
+        rgba = np.asarray(fig.canvas.buffer_rgba())
     finally:
         plt.close(fig)
-    # a palette of 128 colours: a third of the bytes of matplotlib's RGBA, no visible change on line plots
-    image = Image.open(io.BytesIO(buffer.getvalue())).convert("RGB").quantize(128, method=Image.Quantize.FASTOCTREE)
+    image = Image.fromarray(rgba[..., :3]).quantize(128, method=Image.Quantize.FASTOCTREE)
     buffer = io.BytesIO()
     image.save(buffer, "PNG")
     return file, caption, buffer.getvalue()
 
 
-def _convergence(data, colors):
-    fig, ax = _subplots(size=(7.5, 4.8), legend_outside=True)
+def _convergence_and_cost(data, colors):
+    """Two panels sharing the error axis and one legend: error against step, and against wall time."""
+    fig, (ax, cost) = _subplots(1, 2, size=(11.0, 4.6), legend_outside=True, sharey=True)
+    _work_precision(cost, data, colors)
     all_dt, all_e = [], []
     for i, (name, entry) in enumerate(data["methods"].items()):
         dt = np.array([r["dt"] for r in entry["runs"] if r["attitude_error"] is not None])
@@ -183,31 +211,68 @@ def _convergence(data, colors):
         ax.set_ylim(max(min(all_e) / 3, 1e-17), min(emax * 30, 10))
     ax.set_xlabel("step Δt [s]")
     ax.set_ylabel("attitude error at t = T [rad]")
-    ax.set_title(f"{data['scenario']}: convergence against the {data['reference']} reference")
+    ax.set_title(f"{data['scenario']}: convergence ({data['reference']} reference)", loc="left")
+    cost.legend(*ax.get_legend_handles_labels(), loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
+    return fig
+
+
+def _step(dt: float) -> str:
+    """``1/1024`` for a power of two below 1, else ``0.3``."""
+    k = np.log2(1 / dt)
+    return f"1/{int(round(1 / dt))}" if dt < 1 and abs(k - round(k)) < 1e-9 else f"{dt:g}"
+
+
+def _line_style(name):
+    return RUNNERS[name].line_style if name in RUNNERS else "-"
+
+
+def _work_precision(ax, data, colors):
+    for i, (name, entry) in enumerate(data["methods"].items()):
+        runs = [r for r in entry["runs"] if r["attitude_error"] is not None and r.get("wall_time")]
+        if not runs:
+            continue
+        runs.sort(key=lambda r: r["dt"])  # joined step to step, as the convergence lines
+        ax.loglog([r["wall_time"] for r in runs], [max(r["attitude_error"], 1e-17) for r in runs], _line_style(name),
+                  marker=_MARKERS[i % len(_MARKERS)], ms=4, lw=1.2, color=colors[name])
+    for tol in (1e-3, 1e-6, 1e-9):
+        ax.axhline(tol, color="0.5", lw=0.8, ls=":")
+    ax.set_xlabel("wall time of one run [s]")
+    ax.set_title("work against precision", loc="right")
+
+
+def _comparisons(data, colors):
+    fig, ax = _subplots(size=(7.5, 3.6), legend_outside=True)
+    pairs = {}
+    for c in data["comparisons"]:
+        pairs.setdefault((c["a"], c["b"]), []).append((c["dt"], c["max_attitude_difference"]))
+    for i, ((a, b), points) in enumerate(pairs.items()):
+        points.sort()
+        ax.loglog([p[0] for p in points], [max(p[1], 1e-17) for p in points], _line_style(a),
+                  marker=_MARKERS[i % len(_MARKERS)], ms=4, lw=1.2, color=colors.get(a), label=f"{a} − {b}")
+    ax.set_xlabel("step Δt [s]")
+    ax.set_ylabel("max attitude difference [rad]")
+    ax.set_title(f"{data['scenario']}: engines against ours, trajectory to trajectory")
     ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
     return fig
 
 
-def _error_vs_time(series, colors):
-    fig, ax = _subplots(size=(7.5, 3.6), legend_outside=True)
+def _errors_in_time(series, colors, torque_free: bool):
+    """Attitude error against time; torque free, also the energy and momentum drifts (shared time axis)."""
+    size = (7.5, 6.6) if torque_free else (7.5, 3.6)
+    fig, axes = _subplots(3 if torque_free else 1, size=size, legend_outside=True, sharex=True)
+    axes = np.atleast_1d(axes)
     for name, s in series.items():
         e = np.maximum(np.asarray(s["attitude_error"], float), 1e-17)
-        ax.semilogy(s["t"], e, lw=1, color=colors.get(name), label=f"{name} (Δt = {s['dt']:.3g} s)")
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("attitude error [rad]")
-    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
-    return fig
-
-
-def _invariants(series, colors):
-    fig, (a1, a2) = _subplots(2, size=(7.5, 4.8), legend_outside=True, sharex=True)
-    for name, s in series.items():
-        a1.semilogy(s["t"], np.maximum(np.abs(s["energy_drift"]), 1e-18), lw=1, color=colors.get(name), label=name)
-        a2.semilogy(s["t"], np.maximum(s["momentum_drift"], 1e-18), lw=1, color=colors.get(name))
-    a1.set_ylabel("|E/E0 - 1|")
-    a2.set_ylabel("|H - H0| / |H0|")
-    a2.set_xlabel("t [s]")
-    a1.legend(loc="center left", bbox_to_anchor=(1.01, 0.0), frameon=False)
+        axes[0].semilogy(s["t"], e, lw=1, color=colors.get(name), label=f"{name} (Δt = {_step(s['dt'])} s)")
+        if torque_free:
+            axes[1].semilogy(s["t"], np.maximum(np.abs(s["energy_drift"]), 1e-18), lw=1, color=colors.get(name))
+            axes[2].semilogy(s["t"], np.maximum(s["momentum_drift"], 1e-18), lw=1, color=colors.get(name))
+    axes[0].set_ylabel("attitude error [rad]")
+    if torque_free:
+        axes[1].set_ylabel("|E/E0 - 1|")
+        axes[2].set_ylabel("|H - H0| / |H0|")
+    axes[-1].set_xlabel("t [s]")
+    axes[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     return fig
 
 
@@ -218,7 +283,7 @@ def _quaternion_method(series):
     return next(iter(series), None)
 
 
-def _euler_histories(data, series, name, quick=False):
+def _euler_histories(data, series, name):
     """Seed 001 Figs. 13-23: Euler angles from the Euler-angle run and converted from a quaternion run,
     their rates, the body rates and the quaternion components."""
     seq = data["initial"].get("euler_sequence", "323")
@@ -243,8 +308,6 @@ def _euler_histories(data, series, name, quick=False):
     figs.append(_png(fig, f"{name}-euler-angles.png",
                       "Euler angles from the Euler-angle integration and converted from the quaternion one "
                       "(seed 001 Figs. 13-15). Near the singularity the Euler-angle solution departs."))
-    if quick:
-        return figs
     # rates of the angles
     fig, axes = _subplots(3, size=(7.5, 6.0), sharex=True)
     rates_q = _safe_rates(ang_q, sq["omega"], seq)

@@ -211,10 +211,71 @@ def report_document(studies, results: dict, figures: dict) -> list:
         methods += [m for m in st.methods if m not in methods]
     blocks.append(Table(["scenario"] + methods,
                         [[Cell(st.name, link=st.name)] + [_front_cell(st, m) for m in methods] for st in studies]))
+    blocks.append(Heading(2, "In words", anchor="in-words"))
+    for st in studies:
+        blocks.append(Para([(f"{st.name}: ", "b"), (scenario_summary(st), None)]))
     for st in studies:
         blocks += _scenario_blocks(st, figures.get(st.name, []))
     blocks += _appendix_blocks(results)
     return blocks
+
+
+def _ms(seconds) -> str:
+    return "—" if seconds is None else (f"{seconds * 1e3:.2g} ms" if seconds < 1 else f"{seconds:.3g} s")
+
+
+def _step_text(w) -> str:
+    """A :class:`~xcheck.metrics.StepWithin` in words: ``≈ 0.0271 s`` (interpolated), ``≥ 1/2`` (the coarsest
+    tested step is within), ``—`` (not reached)."""
+    if w.dt is None:
+        return "—"
+    return f"≈ {w.dt:.3g} s" if w.how == "interpolated" else f"≥ {_dt(w.dt)} s"
+
+
+def scenario_summary(st) -> str:
+    """What a scenario's numbers say, in a few sentences: the cheapest way to 1e-6 rad (ours and the engines'),
+    how the engines' integrators compare with ours trajectory against trajectory, and the methods whose observed
+    order is not their theory."""
+    key = "1e-06"
+    out = []
+    reach = [(m.within[key].wall_time, m) for m in st.methods.values()
+             if key in m.within and m.within[key].dt is not None and m.within[key].wall_time is not None
+             and m.verdict != "expected"]
+    if reach:
+        wall, best = min(reach, key=lambda x: x[0])
+        out.append(f"Cheapest to 1e-6 rad over the run: {best.name} at Δt {_step_text(best.within[key])} "
+                   f"({_ms(wall)} a run).")
+        engines = [(w, m) for w, m in reach if m.engine != best.engine]
+        if engines:
+            w2, other = min(engines, key=lambda x: x[0])
+            out.append(f"Cheapest {'of ours' if other.engine == 'xcheck' else 'in ' + other.engine}: {other.name} at Δt "
+                       f"{_step_text(other.within[key])} ({_ms(w2)}, {w2 / wall:.2g}× the time).")
+        missing = [m.name for m in st.methods.values() if m.engine != "xcheck" and m.name not in
+                   {n.name for _, n in reach}]
+        if missing:
+            out.append(f"Not within 1e-6 rad at any tested step: {', '.join(missing)}.")
+    else:
+        out.append("No method stays within 1e-6 rad at the tested steps.")
+    pairs = {}
+    for c in st.comparisons:  # the finest step of each pair
+        if (c["a"], c["b"]) not in pairs or c["dt"] < pairs[(c["a"], c["b"])]["dt"]:
+            pairs[(c["a"], c["b"])] = c
+    by_partner = {}
+    for (a, b), c in pairs.items():
+        by_partner.setdefault((b, c["dt"]), []).append(f"{a} {c['max_attitude_difference']:.2g} rad")
+    for (b, dt), items in by_partner.items():
+        out.append(f"Trajectory against trajectory (no reference), largest difference from {b} over the run at "
+                   f"Δt = {_dt(dt)} s: {', '.join(items)}.")
+    off = [m for m in st.methods.values() if m.expected_order is not None and m.verdict == "fail"
+           and any(c.kind == "order" and c.method == m.name and not c.passed for c in st.checks)]
+    if off:
+        out.append("Observed order not its theory: " + ", ".join(
+            f"{m.name} ({_fmt(m.observed_order, '.2f')}, expected {m.expected_order})" for m in off) + ".")
+    elif any(m.observed_order is not None for m in st.methods.values()):
+        out.append("Every measured order matches its theory" +
+                   (" (the expected failures aside)." if any(m.verdict == "expected" for m in st.methods.values())
+                    else "."))
+    return " ".join(out)
 
 
 def _front_cell(st, name) -> Cell:
@@ -260,6 +321,17 @@ def _scenario_blocks(st, figs) -> list:
                      Cell(_fmt(m.observed_order, ".2f"), num=True), *cells,
                      Cell(f"{max(rates):.3g}" if rates else "", num=True)])
     blocks.append(Table(["method", "expected", "observed", *(_dt(d) for d in st.steps), "steps/s"], rows))
+    keys = [k for k in ("1e-03", "1e-06", "1e-09")]
+    blocks.append(Para("What a tolerance costs: the largest step at which each method stays within it over the "
+                       "whole run (≈ interpolated on the log-log line between the two tested steps that bracket it; "
+                       "≥ the coarsest tested step already is; — not even the finest is), and the wall time of one "
+                       "run at that step.", small=True))
+    rows = []
+    for name, m in st.methods.items():
+        rows.append([Cell(name, m.verdict)] + [Cell(f"{_step_text(m.within[k])} · {_ms(m.within[k].wall_time)}"
+                                                     if k in m.within and m.within[k].dt is not None else "—", num=True)
+                                                for k in keys])
+    blocks.append(Table(["method", *(f"within {k} rad" for k in keys)], rows))
     blocks += [Figure(file, caption) for file, caption in figs]
     return blocks
 
