@@ -328,3 +328,13 @@ def test_interrupt_leaves_no_half_report(tmp_path, monkeypatch, capsys):
     assert "no report was written" in capsys.readouterr().err
     assert sorted(p.name for p in out.iterdir()) == before
     assert (out / "latest").resolve() == target
+
+
+def test_timings_name_the_phases(tmp_path, capsys):
+    assert main(["report", "tumbler-intermediate-axis", "--quick", "--out", str(tmp_path), "--workers", "1",
+                 "--timings"]) == 0
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert line.startswith("where the time went: ")
+    phases = re.findall(r"([a-z ,]+) (\d+\.\d\d) s", line.removeprefix("where the time went: "))
+    assert [p.strip(" ,") for p, _ in phases] == ["pool started", "scenarios read", "studies", "figures",
+                                                  "files written", "workers stopped"]

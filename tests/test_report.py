@@ -97,3 +97,21 @@ def test_unknown_block_is_refused(tmp_path):
     (tmp_path / "x.png").write_bytes(b"")
     with pytest.raises(TypeError, match="not a report block"):
         to_html([Figure("x.png", "c"), 3], tmp_path, title="t")
+
+
+def test_cleanup_finishes_despite_an_interrupt():
+    """A signal landing in the middle of the cleanup (the workers of a signalled process group die first) must
+    not leave half a folder: each step runs to its end, then the interrupt goes on."""
+    from xcheck.report.render import _finish_despite_interrupts
+
+    done, calls = [], {"n": 0}
+
+    def interrupted_once():
+        calls["n"] += 1
+        if calls["n"] == 1:
+            raise KeyboardInterrupt
+        done.append("stop")
+
+    with pytest.raises(KeyboardInterrupt):
+        _finish_despite_interrupts(interrupted_once, lambda: done.append("remove"))
+    assert done == ["stop", "remove"] and calls["n"] == 2

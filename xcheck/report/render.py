@@ -93,12 +93,27 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
         final = _rename_into_place(tmp, out_root, stamp)
         marks.append(("files written", time.perf_counter()))
     except BaseException:
-        if pool is not None:
-            stop_pool(pool)  # a worker still drawing would recreate the folder after it is removed
-        shutil.rmtree(tmp, ignore_errors=True)
+        _finish_despite_interrupts(lambda: stop_pool(pool) if pool is not None else None,
+                                   lambda: shutil.rmtree(tmp, ignore_errors=True))
         raise
     _point_latest(out_root, final)
     return final
+
+
+def _finish_despite_interrupts(*steps) -> None:
+    """Run every cleanup step to its end even when Ctrl-C or SIGTERM arrives during one (SIGTERM is raised as a
+    KeyboardInterrupt: with a process group signalled, the workers die first and the parent's own signal can
+    land in the middle of removing the folder); the first interrupt is raised again once all are done."""
+    pending = None
+    for step in steps:
+        while True:
+            try:
+                step()
+                break
+            except KeyboardInterrupt as exc:  # repeat the step: each is safe to run again
+                pending = pending or exc
+    if pending is not None:
+        raise pending
 
 
 def draw_figures(data: dict, series: dict, quick: bool = False) -> list[tuple[str, str, bytes]]:
