@@ -387,12 +387,24 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(args) -> int:
     """``args.func(args)`` with every failure a user can cause turned into a message and an exit code."""
+    from concurrent.futures.process import BrokenProcessPool
+
     from .models import ModelError
     from .report.io import OutputPathError
     from .scenario import ScenarioError
 
     try:
-        return args.func(args)
+        try:
+            return args.func(args)
+        except BrokenProcessPool:
+            # a worker died. A signal to the process group (Ctrl-C, kill -TERM) reaches the workers too, and
+            # the broken pool can surface before this process's own signal does: give that a moment to land
+            time.sleep(0.5)
+            raise
+    except BrokenProcessPool:
+        print("xcheck: error: a worker process died (killed from outside, or out of memory); no report was written",
+              file=sys.stderr)
+        return EXIT_BUG
     except (ScenarioError, ModelError, UsageError, OutputPathError) as exc:
         print(f"xcheck: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -73,16 +73,29 @@ def _import(modules) -> None:
         importlib.import_module(name)
 
 
+def _start_workers(pool: ProcessPoolExecutor, modules=()) -> None:
+    """Start every worker now (one task each: the pool starts one worker per task), with SIGINT ignored while
+    they start: a spawned process inherits an ignored signal, so a Ctrl-C to the process group cannot kill
+    a worker before its initializer has made it ignore SIGINT (it would break the pool)."""
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
+    try:
+        for _ in range(pool._max_workers):
+            pool.submit(_import, modules)
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)
+
+
 @contextmanager
 def worker_pool(workers: int | None = None, *, warm: tuple[str, ...] = ()):
     """:func:`make_pool` for the length of a block, stopped at its end (:func:`stop_pool`): at once when the
     block raises or is interrupted; when it completes, every result has been collected and the workers are
     idle, so ending them spares their interpreters' teardown (0.5 s measured, numba and MuJoCo loaded).
-    ``warm``: modules every worker imports at once (the workers start now, not at the first task)."""
+    The workers start at once (:func:`_start_workers`); ``warm``: modules each imports then."""
     pool = make_pool(workers)
     try:
-        for _ in range(pool._max_workers if warm else 0):  # one task each: the pool starts one worker per task
-            pool.submit(_import, warm)
+        _start_workers(pool, warm)
         yield pool
     finally:
         stop_pool(pool)
