@@ -266,9 +266,19 @@ def test_a_worker_killed_from_outside_is_said_plainly(tmp_path):
     """A worker killed alone (an OOM killer): one line saying so, exit 3, no traceback, nothing half-written."""
     out = tmp_path / "reports"
     proc = _start_report(out)
-    workers = _wait_for(lambda: [w for w in _children(proc.pid) if "resource_tracker" not in
-                                 Path(f"/proc/{w}/cmdline").read_bytes().decode(errors="replace")] or None,
-                        timeout=60, step=0.05)
+
+    def pool_workers():  # spawned workers only (not the resource tracker, nor a passing `uname`)
+        found = []
+        for w in _children(proc.pid):
+            try:
+                cmd = Path(f"/proc/{w}/cmdline").read_bytes().decode(errors="replace")
+            except OSError:
+                continue
+            if "spawn_main" in cmd:
+                found.append(w)
+        return found or None
+
+    workers = _wait_for(pool_workers, timeout=60, step=0.05)
     assert workers
     time.sleep(0.5)
     os.kill(workers[0], signal.SIGKILL)
