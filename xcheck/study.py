@@ -4,6 +4,7 @@ plus the sampled series the report plots."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from concurrent.futures import as_completed
@@ -271,6 +272,7 @@ def _run_method(scenario: Scenario, method: str, steps: tuple, partner: str | No
         return {"method": method, "runs": [Run.failed(dt, "failed", f"no reference: {exc}", 0.0) for dt in steps],
                 "series": None, "reference_error": str(exc), "comparisons": []}
     runner = RUNNERS[method]
+    _warm(runner, ctx, steps)
     torque_free = ctx.torque is None
     runs, finest, comparisons = [], None, []
     for dt in steps:
@@ -303,6 +305,23 @@ def _run_method(scenario: Scenario, method: str, steps: tuple, partner: str | No
                 comparisons.append({"a": method, "b": partner, "dt": dt, "max_attitude_difference": difference})
     series = _sample(finest, ref, ctx) if finest is not None else None
     return {"method": method, "runs": runs, "series": series, "comparisons": comparisons}
+
+
+_WARM: set = set()
+
+
+def _warm(runner, ctx, steps) -> None:
+    """Load (or compile) a method's kernels before its runs are timed: the first call in a process would
+    otherwise charge a coarse step's wall time with ~10-200 ms of loading (the work-precision figure and the
+    step-size table read those times)."""
+    if runner.name in _WARM or not steps:
+        return
+    _WARM.add(runner.name)
+    dt = min(steps)
+    try:
+        runner.run(dataclasses.replace(ctx, duration=min(ctx.duration, 2 * dt)), dt)
+    except ValueError:
+        pass  # the timed runs will say why
 
 
 def _difference(scenario, ctx, traj, partner: str, dt: float) -> float | None:
