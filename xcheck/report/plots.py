@@ -13,6 +13,7 @@ import numpy as np  # noqa: E402
 
 from .. import rotations as rot  # noqa: E402
 from ..runners import RUNNERS  # noqa: E402
+from .document import step_label  # noqa: E402
 
 __all__ = ["render_figures", "scenario_figures", "new_figure", "save_figure"]
 
@@ -193,8 +194,8 @@ def _convergence_and_cost(data, colors):
         e = np.maximum(e, 1e-17)
         order = entry["observed_order"]
         label = f"{name} (p = {order:.2f})" if order is not None else name
-        ls = RUNNERS[name].line_style if name in RUNNERS else "-"
-        ax.loglog(dt, e, ls, marker=_MARKERS[i % len(_MARKERS)], ms=4, lw=1.2, color=colors[name], label=label)
+        ax.loglog(dt, e, _line_style(name), marker=_MARKERS[i % len(_MARKERS)], ms=4, lw=1.2, color=colors[name],
+                  label=label)
         all_dt += list(dt)
         all_e += list(e)
     if all_dt:
@@ -214,12 +215,6 @@ def _convergence_and_cost(data, colors):
     ax.set_title(f"{data['scenario']}: convergence ({data['reference']} reference)", loc="left")
     cost.legend(*ax.get_legend_handles_labels(), loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
     return fig
-
-
-def _step(dt: float) -> str:
-    """``1/1024`` for a power of two below 1, else ``0.3``."""
-    k = np.log2(1 / dt)
-    return f"1/{int(round(1 / dt))}" if dt < 1 and abs(k - round(k)) < 1e-9 else f"{dt:g}"
 
 
 def _line_style(name):
@@ -263,7 +258,7 @@ def _errors_in_time(series, colors, torque_free: bool):
     axes = np.atleast_1d(axes)
     for name, s in series.items():
         e = np.maximum(np.asarray(s["attitude_error"], float), 1e-17)
-        axes[0].semilogy(s["t"], e, lw=1, color=colors.get(name), label=f"{name} (Δt = {_step(s['dt'])} s)")
+        axes[0].semilogy(s["t"], e, lw=1, color=colors.get(name), label=f"{name} (Δt = {step_label(s['dt'])} s)")
         if torque_free:
             axes[1].semilogy(s["t"], np.maximum(np.abs(s["energy_drift"]), 1e-18), lw=1, color=colors.get(name))
             axes[2].semilogy(s["t"], np.maximum(s["momentum_drift"], 1e-18), lw=1, color=colors.get(name))

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..versions import machine, versions
-from .document import Cell, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
+from .document import Cell, Figure, Heading, Para, Table, Verdict, step_label, to_html, to_markdown
 from .io import write_json_atomic, write_text_atomic, write_trajectory_csv
 
 __all__ = ["write_report", "draw_figures", "report_document", "REPORT_SCHEMA", "verdict_of"]
@@ -29,11 +29,6 @@ def verdict_of(data: dict, method: str) -> str:
 
 def _fmt(x, spec=".2e"):
     return "—" if x is None else format(x, spec)
-
-
-def _dt(dt):
-    k = np.log2(1 / dt)
-    return f"1/{int(round(1 / dt))}" if abs(k - round(k)) < 1e-9 and dt < 1 else f"{dt:g}"
 
 
 # ------------------------------------------------------------------------------------------------
@@ -244,7 +239,7 @@ def _step_text(w) -> str:
     tested step is within), ``—`` (not reached)."""
     if w.dt is None:
         return "—"
-    return f"≈ {w.dt:.3g} s" if w.how == "interpolated" else f"≥ {_dt(w.dt)} s"
+    return f"≈ {w.dt:.3g} s" if w.how == "interpolated" else f"≥ {step_label(w.dt)} s"
 
 
 def scenario_summary(st) -> str:
@@ -280,7 +275,7 @@ def scenario_summary(st) -> str:
         by_partner.setdefault((b, c["dt"]), []).append(f"{a} {c['max_attitude_difference']:.2g} rad")
     for (b, dt), items in by_partner.items():
         out.append(f"Trajectory against trajectory (no reference), largest difference from {b} over the run at "
-                   f"Δt = {_dt(dt)} s: {', '.join(items)}.")
+                   f"Δt = {step_label(dt)} s: {', '.join(items)}.")
     off = [m for m in st.methods.values() if m.expected_order is not None and m.verdict == "fail"
            and any(c.kind == "order" and c.method == m.name and not c.passed for c in st.checks)]
     if off:
@@ -335,7 +330,7 @@ def _scenario_blocks(st, figs) -> list:
         rows.append([Cell(name, m.verdict), "adaptive" if m.expected_order is None else str(m.expected_order),
                      Cell(_fmt(m.observed_order, ".2f"), num=True), *cells,
                      Cell(f"{max(rates):.3g}" if rates else "", num=True)])
-    blocks.append(Table(["method", "expected", "observed", *(_dt(d) for d in st.steps), "steps/s"], rows))
+    blocks.append(Table(["method", "expected", "observed", *(step_label(d) for d in st.steps), "steps/s"], rows))
     keys = [k for k in ("1e-03", "1e-06", "1e-09")]
     blocks.append(Para("What a tolerance costs: the largest step at which each method stays within it over the "
                        "whole run (≈ interpolated on the log-log line between the two tested steps that bracket it; "
