@@ -34,12 +34,11 @@ BJORCK_TOL = 4.5 * np.finfo(float).eps
 _twins: dict[str, object] = {}
 
 
-def _kernels_for(*, python: bool = False, batch: bool = False):
-    """The kernels for a run, the one place the variant is chosen: ``compiled`` (single trajectories),
-    ``inlined`` (batches: slower to compile, faster to run) or ``python`` (interpreted, for Python torque
-    callables). A variant other than the compiled module is the same source loaded under another module
-    name with ``VARIANT`` set before it runs (see :mod:`._kernels`)."""
-    variant = "python" if python else "inlined" if batch else "compiled"
+def _kernels_for(*, python: bool = False):
+    """The kernels for a run, the one place the variant is chosen: ``compiled`` (single trajectories and
+    batches) or ``python`` (interpreted, for Python torque callables). The python variant is the same source
+    loaded under another module name with ``VARIANT`` set before it runs (see :mod:`._kernels`)."""
+    variant = "python" if python else "compiled"
     if variant == "compiled":
         return _kernels
     if variant not in _twins:
@@ -180,10 +179,12 @@ def integrate_batch(method: str, inertia, q0, omega0, *, dt: float, duration: fl
     q0, omega0 = check_initial_state(q0, omega0, batch=True)
     N = q0.shape[0]
     inertia = np.asarray(inertia, dtype=float)
-    if inertia.shape in ((3,), (3, 3)):
-        I = np.broadcast_to(validate_inertia(inertia), (N, 3, 3)).copy()
+    if inertia.shape in ((3,), (3, 3)):  # one body for all: one inverse
+        I1 = validate_inertia(inertia)
+        I, Iinv = (np.broadcast_to(M, (N, 3, 3)).copy() for M in (I1, np.linalg.inv(I1)))
     elif inertia.shape in ((N, 3), (N, 3, 3)):
         I = np.stack([validate_inertia(x, name=f"inertia[{i}]") for i, x in enumerate(inertia)])  # (per body)
+        Iinv = np.linalg.inv(I)
     else:
         raise ValueError(f"inertia: expected (3,), (3, 3), ({N}, 3) or ({N}, 3, 3), got {inertia.shape}")
     if save not in ("final", "all"):
@@ -191,7 +192,7 @@ def integrate_batch(method: str, inertia, q0, omega0, *, dt: float, duration: fl
     n, last_h = step_plan(dt, duration)
     rot._check_seq(sequence)
     tk, P, T, python = _resolve_torque(torque, duration)
-    kern = _kernels_for(python=python, batch=True)
+    kern = _kernels_for(python=python)
     m = kern.STATE_SIZE[info.kernel]
     Y0 = np.ascontiguousarray(info.encode(q0, omega0, sequence))
     save_every = 1 if save == "all" else n
@@ -200,7 +201,7 @@ def integrate_batch(method: str, inertia, q0, omega0, *, dt: float, duration: fl
     steps_done = np.zeros(N, dtype=np.int64)
     status = np.zeros(N, dtype=np.int64)
     args = _kernel_args(info, sequence, dt=dt, n=n, last_h=last_h, torque=(tk, P, T), save_every=save_every)
-    kern.run_many(info.kernel, args, Y0, I, np.linalg.inv(I), out, steps_done, status)
+    kern.run_many(info.kernel, args, Y0, I, Iinv, out, steps_done, status)
     y = out[:, :, :m].reshape(N * rows, m)
     q, omega, _ = info.decode(y, sequence)  # (sign continuity across trajectories is harmless)
     full_t = time_grid(n, float(dt), float(duration))

@@ -28,17 +28,25 @@ How it is fast: numba compiles it (``cache=True``: once per user and release, in
 :mod:`xcheck._jit`; then loaded in ~0.2 s). Each scheme has two entry points made from the registry
 (:func:`_entry_points`: ``run_<name>``, ``many_<name>``) in which the scheme is a compile-time constant and
 its step function is named, and the dispatchers (:func:`deriv`, the hooks) are overloads that keep only that
-scheme's code:
-each scheme compiles and is cached on its own. Kernel arguments are one named record
-(:class:`~xcheck.integrators.kernel_args.KernelArgs`),
-unpacked once per run; derivatives and hooks take plain arguments (a record passed into every call costs the
-reference counts of its arrays).
+scheme's code: each scheme compiles and is cached on its own. Inside one step:
 
-Variants: :func:`xcheck.integrators._kernels_for` loads this same source under other module names with
-``VARIANT`` set before it runs: ``"compiled"`` (this module, single trajectories: helpers called),
-``"inlined"`` (the batch path: helpers and derivatives inlined, ~25 s instead of ~2 s to compile a scheme, for
-1.5-2.5x the speed) and ``"python"`` (``jit`` the identity: the same code interpreted, for a Python torque
-callable). One code path per method, fast or general.
+- nothing allocates and nothing counts references: the loop and its helpers are compiled without numba's
+  runtime (``_nrt=False``), the scratch arrays come from the caller (:func:`scratch`). A slice such as
+  ``work[0:3]`` is then a free view; with the runtime, each one cost an atomic reference count, and the
+  single-trajectory step took 1.1-2.1 us instead of 0.14-0.5 us;
+- the stage loop, the stage derivatives, the hooks, Euler's equation and the torque's dispatch are inlined
+  (``ijit``: a call passes ~7 machine words per array); the small kinematic helpers and the field
+  evaluators (:func:`xcheck.fields.kernel.magnetic_torque`) stay calls, compiled once (``jit``): inlining
+  them too bought < 5 % for 1-2 s more compile per scheme;
+- a batch is the same compiled single-trajectory loop called for each row in parallel threads, each row
+  with its own scratch: one loop, one compile.
+
+Kernel arguments are one named record (:class:`~xcheck.integrators.kernel_args.KernelArgs`), unpacked once
+per run; derivatives and hooks take plain arguments.
+
+Variants: :func:`xcheck.integrators._kernels_for` loads this same source under another module name with
+``VARIANT = "python"`` set before it runs: ``jit`` is then the identity, and the same code is interpreted for
+a Python torque callable. One code path per method, fast or general.
 """
 
 import inspect
@@ -52,10 +60,9 @@ from ..trajectory import continuous_quaternions
 #: Which variant this module is: set by the loader before the module runs (``_kernels_for``); the module
 #: imported normally is the compiled one.
 VARIANT = globals().get("VARIANT", "compiled")
-if VARIANT not in ("compiled", "inlined", "python"):
+if VARIANT not in ("compiled", "python"):
     raise ImportError(f"xcheck.integrators._kernels: unknown variant {VARIANT!r}")
 PYTHON_MODE = VARIANT == "python"
-INLINED = VARIANT == "inlined"
 
 if PYTHON_MODE:  # the interpreted twin: same code, Python torque callables
 
@@ -88,21 +95,15 @@ else:
     # numba's pedantic SSA check misfires on IR-inlined code ("variable ... is not in scope"); harmless
     warnings.filterwarnings("ignore", category=numba.core.errors.NumbaIRAssumptionWarning)
 
-    # The stage loop and `run` are always inlined into the entry points (where the scheme is a compile-time
-    # constant). Helpers and stage derivatives are compiled once and called (quick to compile: single
-    # trajectories) -- or, in the "inlined" variant used by the batch path, inlined too.
-    _inline = "always" if INLINED else "never"
-    jit = numba.njit(cache=True, error_model="numpy", inline=_inline)
-    ijit = numba.njit(cache=True, error_model="numpy", inline="always")
-    loop_jit = numba.njit(cache=True, error_model="numpy")
+    # jit: a helper compiled once and called; ijit: inlined where it is used (see the module docstring).
+    # Neither uses numba's runtime: no allocation, no reference counts (numba refuses code that would).
+    jit = numba.njit(cache=True, error_model="numpy", _nrt=False)
+    ijit = numba.njit(cache=True, error_model="numpy", inline="always", _nrt=False)
+    loop_jit = jit
     pjit = numba.njit(cache=True, parallel=True, error_model="numpy")
     prange = numba.prange
-    if INLINED:
-        torque_eval = numba.njit(error_model="numpy", inline="always")(fields.torque_eval.py_func)
-        torque_needs_attitude = numba.njit(error_model="numpy", inline="always")(fields.torque_needs_attitude.py_func)
-    else:
-        torque_eval = fields.torque_eval
-        torque_needs_attitude = fields.torque_needs_attitude
+    torque_eval = fields.torque_eval  # inlined (its evaluators are calls)
+    torque_needs_attitude = fields.torque_needs_attitude
 
 OK, SINGULAR, NONFINITE = 0, 1, 2
 
@@ -231,7 +232,7 @@ def dot3(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@jit
+@ijit
 def euler_equation(I, Iinv, tau, w, out):
     """``w' = I^-1 (t' - w x I w)`` (seed 004 eq. 143/158; seed 001 eq. 81-84)."""
     h0 = I[0, 0] * w[0] + I[0, 1] * w[1] + I[0, 2] * w[2]
@@ -361,7 +362,7 @@ def gibbs_quat(g, out):
 # ------------------------------------------------------------------------------------------------
 # EULER: RK4 on Euler angles (seed 001 appendix A)
 # ------------------------------------------------------------------------------------------------
-@jit
+@ijit
 def deriv_euler(t, y, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work):
     """RK4 on (Euler angles, w) as seed 001's ``cinversa_euler``, for any sequence: the angle rates are
     ``J^-1 w`` with ``w = J angle'``; J's columns are ``Rc^T Rb^T e_a``, ``Rc^T e_b``, ``e_c``."""
@@ -401,9 +402,20 @@ def _enc_euler(q0, w0, seq):
     return np.concatenate([rot.quat_to_euler(q0, seq, warn=False), w0], axis=-1)
 
 
+@jit
+def euler_rows_to_quat(y, axes, q, e):
+    """The quaternions (``w >= 0``, as xcheck.rotations.euler_to_quat) of the Euler-angle rows of ``y``."""
+    for r in range(y.shape[0]):
+        euler_quat(axes, y[r, 0:3], q[r], e)
+        if q[r, 0] < 0.0:
+            for i in range(4):
+                q[r, i] = -q[r, i]
+
+
 def _dec_euler(y, seq):
-    angles = y[:, 0:3]
-    return continuous_quaternions(rot.euler_to_quat(angles, seq)), y[:, 3:6], {"euler": angles.copy()}
+    q = np.empty((len(y), 4))
+    euler_rows_to_quat(np.ascontiguousarray(y), np.array(rot._check_seq(seq), dtype=np.int64), q, np.empty(4))
+    return continuous_quaternions(q), y[:, 3:6], {"euler": y[:, 0:3].copy()}
 
 
 EULER = declare(Scheme("euler", size=6, deriv=deriv_euler, encode=_enc_euler, decode=_dec_euler, work=26))
@@ -412,7 +424,7 @@ EULER = declare(Scheme("euler", size=6, deriv=deriv_euler, encode=_enc_euler, de
 # ------------------------------------------------------------------------------------------------
 # F1: seed 004 Formulation I (§2.3)
 # ------------------------------------------------------------------------------------------------
-@jit
+@ijit
 def deriv_formulation1(t, y, dy, I, Iinv, tk, tP, tT, work):
     """Seed 004 Formulation I: ``[2 I' G; p^T] p'' = [t' - 4 G G'^T I' G p'; -p'^T p']`` (eq. 154)
     with ``G' = G(p')`` (G is linear in p) and ``w' = 2 G p'`` (eq. 140).
@@ -447,7 +459,7 @@ def deriv_formulation1(t, y, dy, I, Iinv, tk, tP, tT, work):
     return OK
 
 
-@jit
+@ijit
 def project_formulation1(y):
     """Seed 004 eq. 155-156: ``p <- p/|p|``, ``p' <- p' - (p'^T p) p``."""
     n = np.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3])
@@ -475,7 +487,7 @@ F1 = declare(Scheme("formulation-1", size=8, deriv=deriv_formulation1, after_ste
 # ------------------------------------------------------------------------------------------------
 # F2: seed 004 Formulation II (§2.4)
 # ------------------------------------------------------------------------------------------------
-@jit
+@ijit
 def deriv_formulation2(t, y, dy, I, Iinv, tk, tP, tT, work):
     """Seed 004 Formulation II: ``p' = 1/2 G(p)^T w'`` (eq. 162), ``w' = I'^-1 (t' - w' x I' w')`` (eq. 158)."""
     p = y[0:4]
@@ -489,7 +501,7 @@ def deriv_formulation2(t, y, dy, I, Iinv, tk, tP, tT, work):
     return OK
 
 
-@jit
+@ijit
 def normalise_formulation2(y):
     """Seed 004 algorithm 163: ``p_out = p_1out / sqrt(p_1out^T p_1out)``."""
     n = np.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2] + y[3] * y[3])
@@ -512,7 +524,7 @@ F2 = declare(Scheme("formulation-2", size=7, deriv=deriv_formulation2, after_ste
 # ------------------------------------------------------------------------------------------------
 # LIE: seed 004 §2.5, the Lie-group method on S3 with RK on so(3); CF4 on the same state
 # ------------------------------------------------------------------------------------------------
-@jit
+@ijit
 def deriv_lie(t, y, yhat, dy, I, Iinv, tk, tP, tT, work):
     """Seed 004 §2.5: ``u' = dexp^-1_{-u}(w)`` (eq. 166-167) on so(3), the attitude of a stage is
     ``p_n ∘ exp_S3(u)`` (eq. 170-171) and ``w' = f(p, w)``. ``yhat`` carries the u of the dexp argument:
@@ -531,7 +543,7 @@ def deriv_lie(t, y, yhat, dy, I, Iinv, tk, tP, tT, work):
     return OK
 
 
-@jit
+@ijit
 def lie_update(y, work):
     """Seed 004 algorithm 172: ``p_out = p_0 ∘ exp_S3(u)``; the unit norm holds by construction."""
     e = work[0:4]
@@ -559,7 +571,7 @@ CF4 = declare(Scheme("lie-cf4", size=10, first=4, deriv=deriv_lie, step="cf4", e
 # ------------------------------------------------------------------------------------------------
 # DCM: RK4 on R' = R [w x] with Björck-Bowie (seed 000)
 # ------------------------------------------------------------------------------------------------
-@jit
+@ijit
 def deriv_dcm(t, y, dy, I, Iinv, tk, tP, tT, work):
     """``R' = R [w x]`` (seed 000 eq. 1.7 for the body -> world matrix; seed 004 eq. 131)."""
     R = y[0:9]
@@ -587,10 +599,28 @@ def _enc_dcm(q0, w0, seq):
     return np.concatenate([R.reshape(R.shape[:-2] + (9,)), w0], axis=-1)
 
 
+@jit
+def dcm_rows_to_quat(y, q, ortho):
+    """Decode the DCM rows of ``y`` (n, 12): their quaternions (``w >= 0``, as xcheck.rotations.dcm_to_quat) and
+    ``max |R^T R - I|``, in one compiled pass (numpy's batched 3x3 products cost more than the integration)."""
+    for r in range(y.shape[0]):
+        R = y[r, 0:9]
+        dcm_to_quat(R, q[r])
+        if q[r, 0] < 0.0:
+            for i in range(4):
+                q[r, i] = -q[r, i]
+        err = 0.0
+        for i in range(3):
+            for j in range(3):
+                d = R[i] * R[j] + R[3 + i] * R[3 + j] + R[6 + i] * R[6 + j] - (1.0 if i == j else 0.0)
+                err = max(err, abs(d))
+        ortho[r] = err
+
+
 def _dec_dcm(y, seq):
-    R = y[:, 0:9].reshape(-1, 3, 3)
-    ortho = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(axis=(-2, -1))
-    return continuous_quaternions(rot.dcm_to_quat(R)), y[:, 9:12].copy(), {"orthogonality": ortho}
+    q, ortho = np.empty((len(y), 4)), np.empty(len(y))
+    dcm_rows_to_quat(np.ascontiguousarray(y), q, ortho)
+    return continuous_quaternions(q), y[:, 9:12].copy(), {"orthogonality": ortho}
 
 
 DCM = declare(Scheme("dcm", size=12, deriv=deriv_dcm, after_step=orthonormalise_dcm, encode=_enc_dcm,
@@ -600,7 +630,7 @@ DCM = declare(Scheme("dcm", size=12, deriv=deriv_dcm, after_step=orthonormalise_
 # ------------------------------------------------------------------------------------------------
 # GIBBS and ROTVEC: global charts re-centred before their singularities (seed 000)
 # ------------------------------------------------------------------------------------------------
-@jit
+@ijit
 def deriv_gibbs(t, y, dy, I, Iinv, tk, tP, tT, work):
     """Gibbs-vector kinematics ``g' = 1/2 (I + [g x] + g g^T) w`` (seed 000 §1.4.2, with the skew-term sign
     of its own §1.4.1 DCM; see xcheck.rotations.gibbs_rate); attitude ``q_ref ⊗ q(g)``."""
@@ -619,7 +649,7 @@ def deriv_gibbs(t, y, dy, I, Iinv, tk, tP, tT, work):
     return OK
 
 
-@jit
+@ijit
 def deriv_rotvec(t, y, dy, I, Iinv, tk, tP, tT, work):
     """Rotation-vector kinematics with the non-commutativity term (seed 000 §1.5.2); attitude ``q_ref ⊗ exp(phi)``."""
     phi = y[4:7]
@@ -762,9 +792,8 @@ def rk_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, tP
                 for j in range(i):
                     acc += Ahat[i, j] * K[j, l]
                 Yhat[l] = y[l] + h * acc
-            status = deriv(scheme, t + c[i] * h, Y, Yhat, K[i], I, Iinv, tk, tP, tT, axes, sing_tol, work)
-        else:
-            status = deriv(scheme, t + c[i] * h, Y, Y, K[i], I, Iinv, tk, tP, tT, axes, sing_tol, work)
+        status = deriv(scheme, t + c[i] * h, Y, Yhat if use_hat else Y, K[i], I, Iinv, tk, tP, tT, axes, sing_tol,
+                       work)
         if status != OK:
             return status
     for l in range(first, m):
@@ -840,27 +869,26 @@ def cf4_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, t
 # the loops and the two entry points
 # ------------------------------------------------------------------------------------------------
 @ijit
-def run(scheme, step_fn, a, y0, I, Iinv, out):
-    """Integrate ``a.n`` steps with ``step_fn`` (:func:`rk_step` or :func:`cf4_step`) (the last of length ``a.last_h``) from ``y0``; store ``y`` every ``a.save_every``
-    steps and at the end into ``out`` (row 0 = ``y0``). Returns (steps done, status): on a singular or
-    non-finite step the loop stops, and ``out``'s remaining rows hold the last good state."""
+def run(scheme, step_fn, a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev):
+    """Integrate ``a.n`` steps with ``step_fn`` (:func:`rk_step` or :func:`cf4_step`) (the last of length
+    ``a.last_h``) from ``y0``; store ``y`` every ``a.save_every`` steps and at the end into ``out`` (row 0 =
+    ``y0``). ``K, Y, Yhat, work, y, y_prev`` are scratch (:func:`scratch`). Returns (steps done, status): on a
+    singular or non-finite step the loop stops, and ``out``'s remaining rows hold the last good state."""
     m = STATE_SIZE[scheme]
-    K = np.zeros((max(a.b.shape[0], 4), m))  # CF4 has 4 stages whatever the tableau
-    Y = np.zeros(m)
-    Yhat = np.zeros(m)
-    work = np.zeros(WORK_SIZE[scheme])
-    y = y0[:m].copy()
-    y_prev = y.copy()
-    out[0, :m] = y
+    for l in range(m):
+        y[l] = y0[l]
+        out[0, l] = y[l]
     row = 1
+    until_save = a.save_every
     n, dt, last_h, save_every, bjorck_tol = a.n, a.dt, a.last_h, a.save_every, a.bjorck_tol
-    A, b, c, Ahat, use_hat = a.A, a.b, a.c, a.Ahat, a.use_hat  # unpacked once: per step, each array costs
-    tk, tP, tT, axes, sing_tol = a.tk, a.tP, a.tT, a.axes, a.sing_tol  # its reference count (~5 %)
+    A, b, c, Ahat, use_hat = a.A, a.b, a.c, a.Ahat, a.use_hat  # the record unpacked once per run
+    tk, tP, tT, axes, sing_tol = a.tk, a.tP, a.tT, a.axes, a.sing_tol
     for step in range(n):
         h = dt if step < n - 1 else last_h
         t = step * dt
         before_step(scheme, y, bjorck_tol, work)
-        y_prev[:] = y
+        for l in range(m):
+            y_prev[l] = y[l]
         status = step_fn(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, tP, tT, axes, sing_tol,
                          work)
         if status == OK:
@@ -868,44 +896,62 @@ def run(scheme, step_fn, a, y0, I, Iinv, out):
             for l in range(m):
                 if not np.isfinite(y[l]):
                     status = NONFINITE
-        if status != OK:
-            y[:] = y_prev
+        if status != OK:  # the last good state fills the remaining rows
             for r in range(row, out.shape[0]):
-                out[r, :m] = y
+                for l in range(m):
+                    out[r, l] = y_prev[l]
             return step, status
-        if (step + 1) % save_every == 0 or step == n - 1:
-            out[row, :m] = y
+        until_save -= 1
+        if until_save == 0 or step == n - 1:
+            for l in range(m):
+                out[row, l] = y[l]
             row += 1
+            until_save = save_every
     return n, OK
 
 
 def _entry_points(scheme: int):
-    """The two compiled entry points of ``scheme``, made from the registry: ``run_<name>(a, y0, I, Iinv, out)``
-    and ``many_<name>(a, Y0, I, Iinv, out, steps_done, status)``, with the scheme a literal constant and its
-    step function named in their source (an overload choosing the step doubled the batch compile time). They are compiled from text under this file's name so that numba caches them like functions written
-    out here (a closure would miss the cache on every run, and ``numba.literally`` re-types every call: 67 ms)."""
+    """The two compiled entry points of ``scheme``, made from the registry:
+    ``run_<name>(a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev)`` (the scratch arrays of :func:`run`,
+    allocated by the caller: the loop itself neither allocates nor counts references) and
+    ``many_<name>(a, Y0, I, Iinv, out, steps_done, status, K, Y, Yhat, work, y, y_prev)``, which calls the
+    first for each row in parallel threads, each row with its own scratch. The scheme is a literal constant
+    and its step function is named in their source (an overload choosing the step doubled the compile time).
+    They are compiled from text under this file's name so that numba caches them like functions written out
+    here (a closure would miss the cache on every run, and ``numba.literally`` re-types every call: 67 ms)."""
     ident = SCHEMES[scheme].name.replace("-", "_")
     step = {"rk": "rk_step", "cf4": "cf4_step"}[SCHEMES[scheme].step]
-    source = (f"def run_{ident}(a, y0, I, Iinv, out):\n"
-              f"    return run({scheme}, {step}, a, y0, I, Iinv, out)\n"
-              f"def many_{ident}(a, Y0, I, Iinv, out, steps_done, status):\n"
-              f"    for k in prange(Y0.shape[0]):\n"
-              f"        nd, st = run({scheme}, {step}, a, Y0[k], I[k], Iinv[k], out[k])\n"
-              f"        steps_done[k] = nd\n"
-              f"        status[k] = st\n")
-    namespace = {}
-    exec(compile(source, __file__, "exec"), globals(), namespace)
-    return loop_jit(namespace[f"run_{ident}"]), pjit(namespace[f"many_{ident}"])
+    namespace = dict(globals())
+    exec(compile(f"def run_{ident}(a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev):\n"
+                 f"    return run({scheme}, {step}, a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev)\n",
+                 __file__, "exec"), namespace)
+    one = namespace[f"run_{ident}"] = loop_jit(namespace[f"run_{ident}"])
+    exec(compile(f"def many_{ident}(a, Y0, I, Iinv, out, steps_done, status, K, Y, Yhat, work, y, y_prev):\n"
+                 f"    for k in prange(Y0.shape[0]):\n"
+                 f"        nd, st = run_{ident}(a, Y0[k], I[k], Iinv[k], out[k], K[k], Y[k], Yhat[k], work[k], y[k],\n"
+                 f"                             y_prev[k])\n"
+                 f"        steps_done[k] = nd\n"
+                 f"        status[k] = st\n",
+                 __file__, "exec"), namespace)
+    return one, pjit(namespace[f"many_{ident}"])
 
 
 RUN_ONE, RUN_MANY = (tuple(t) for t in zip(*(_entry_points(k) for k in range(len(SCHEMES)))))
 
 
+def scratch(scheme, a, *batch):
+    """The scratch arrays of :func:`run` (K, Y, Yhat, work, y, y_prev), with leading dimensions ``batch``."""
+    m = STATE_SIZE[scheme]
+    return (np.zeros((*batch, max(a.b.shape[0], 4), m)),  # CF4 has 4 stages whatever the tableau
+            np.zeros((*batch, m)), np.zeros((*batch, m)), np.zeros((*batch, WORK_SIZE[scheme])),
+            np.zeros((*batch, m)), np.zeros((*batch, m)))
+
+
 def run_one(scheme, a, y0, I, Iinv, out):
     """One trajectory of ``scheme`` (:func:`run`): (steps done, status)."""
-    return RUN_ONE[scheme](a, y0, I, Iinv, out)
+    return RUN_ONE[scheme](a, y0, I, Iinv, out, *scratch(scheme, a))
 
 
 def run_many(scheme, a, Y0, I, Iinv, out, steps_done, status):
     """:func:`run` for each row of ``Y0`` (N, m), in parallel threads; ``I``, ``Iinv`` are (N, 3, 3)."""
-    RUN_MANY[scheme](a, Y0, I, Iinv, out, steps_done, status)
+    RUN_MANY[scheme](a, Y0, I, Iinv, out, steps_done, status, *scratch(scheme, a, Y0.shape[0]))

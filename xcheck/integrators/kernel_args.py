@@ -1,7 +1,7 @@
 """The named arguments of the integrator kernels (one record instead of a positional tuple).
 
-Defined in a module of its own, outside :mod:`._kernels`, so that every variant of the kernels (compiled,
-inlined, interpreted) sees the same class: numba's cache stores signatures that name it."""
+Defined in a module of its own, outside :mod:`._kernels`, so that both variants of the kernels (compiled,
+interpreted) see the same class: numba's cache stores signatures that name it."""
 
 from __future__ import annotations
 
