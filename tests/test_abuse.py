@@ -205,8 +205,44 @@ def _alive(pid):
     return state != "Z"
 
 
-def _start_report(out, *extra):
-    return subprocess.Popen([sys.executable, "-m", "xcheck", "report", "--quick", "--out", str(out), *extra],
+#: A study that computes for tens of seconds on any machine (MuJoCo over 2 million steps): the tests below
+#: interrupt it while it computes, and must not race a report that has become fast.
+SLOW_SCENARIO = f"""name = "slow"
+description = "long enough to be interrupted while computing"
+model = "{(BUNDLED_MODELS / 'tumbler.xml').as_posix()}"
+duration = 1000.0
+[initial]
+quaternion = [0.7071067811865476, 0.7071067811865476, 0.0, 0.0]
+angular_velocity = [0.02, 2.0, 0.03]
+[study]
+reference = "exact"
+quick_steps = [0.0009765625, 0.00048828125]
+methods = ["mujoco-rk4", "mujoco-euler", "mujoco-implicit", "mujoco-implicitfast"]
+"""
+
+#: The parent of `xcheck report` with every PNG write slowed by 0.3 s (its workers are untouched): the
+#: writing phase then lasts seconds, whatever the machine.
+SLOW_WRITER = """import sys, time
+import xcheck.report.io as io
+_write = io.write_bytes_atomic
+def slow_write(*args, **kwargs):
+    time.sleep(0.3)
+    return _write(*args, **kwargs)
+io.write_bytes_atomic = slow_write
+from xcheck.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def _start_report(out, *scenarios, slow_writes=False):
+    """``xcheck report --quick`` into ``out`` in a session of its own: of ``scenarios``, or of a study that
+    computes for tens of seconds (:data:`SLOW_SCENARIO`)."""
+    if not scenarios:
+        slow = out.parent / "slow.toml"
+        slow.write_text(SLOW_SCENARIO)
+        scenarios = (str(slow),)
+    launcher = ["-c", SLOW_WRITER] if slow_writes else ["-m", "xcheck"]
+    return subprocess.Popen([sys.executable, *launcher, "report", "--quick", "--out", str(out), *scenarios],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
 
 
@@ -229,7 +265,7 @@ def test_signal_during_writing_leaves_nothing(tmp_path, sig, code, word):
     """The signal arrives while the report is being written (its hidden folder exists) and the pool's
     workers are drawing figures: exit promptly, workers gone, no folder, no PNG recreated afterwards."""
     out = tmp_path / "reports"
-    proc = _start_report(out, "tumbler-intermediate-axis", "gyroscope-nonsingular")
+    proc = _start_report(out, "tumbler-intermediate-axis", "gyroscope-nonsingular", slow_writes=True)
     assert _wait_for(lambda: list(out.glob(".incomplete-*")), timeout=120), proc.communicate()
     workers = _children(proc.pid)
     os.killpg(proc.pid, sig)  # like Ctrl-C on a terminal: the whole process group
@@ -240,7 +276,7 @@ def test_signal_during_writing_leaves_nothing(tmp_path, sig, code, word):
     assert f"xcheck: {word}; no report was written" in err and "Traceback" not in err
     time.sleep(1.0)  # a worker that survived would recreate plots/ now
     assert not any(_alive(w) for w in workers)
-    assert list(out.iterdir()) == []
+    assert list(out.iterdir()) == [], (list(out.rglob("*")), err)
 
 
 @linux_only
