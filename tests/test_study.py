@@ -78,6 +78,20 @@ def test_reference_failure_is_the_one_check(scenario):
     assert st.methods["lie-rkmk4"].verdict == "fail" and st.methods["lie-rkmk4"].status == "failed"
 
 
+def test_a_reference_that_fails_when_evaluated_fails_the_study(scenario, monkeypatch):
+    """The exact reference's quadrature is bounded when it is evaluated on a run's grid, not when it is built: a
+    failure there (found on a 1000 s tumbler at 1/2048 s: 2.05e6 panels) is the study's one "reference" check,
+    not an internal error. Here the bound is 60 panels: building the 10 s tumbler's reference needs 47, its
+    grid at 1/8 s (81 times) needs 80."""
+    from xcheck import reference, study
+
+    monkeypatch.setattr(reference, "_MAX_PANELS", 60)
+    monkeypatch.setattr(study, "_CACHE", {})  # no reference of this scenario from an earlier test
+    st = run_study(scenario, methods=["lie-rkmk4"], steps=[0.125, 0.0625], workers=1)
+    assert [c.name for c in st.checks] == ["reference"] and not st.passed
+    assert "quadrature panels (at most 60)" in st.checks[0].note
+
+
 def test_json_keeps_the_schema(scenario):
     data = assemble(scenario, STEPS, [result("lie-rkmk4", runs(4))]).data
     assert data["schema"] == "xcheck.convergence/1" and data["scenario"] == "tumbler-intermediate-axis"

@@ -265,12 +265,16 @@ def _run_method(scenario: Scenario, method: str, steps: tuple, partner: str | No
     import warnings
 
     warnings.filterwarnings("ignore", category=UserWarning, module="xcheck.models")
-    ctx = run_context(scenario)
     try:
-        ref = scenario_reference(scenario)
-    except ReferenceFailure as exc:  # nothing can be measured: the study fails with the reason
+        return _measure_method(scenario, method, steps, partner)
+    except ReferenceFailure as exc:  # building or evaluating it: nothing can be measured, the study fails with
         return {"method": method, "runs": [Run.failed(dt, "failed", f"no reference: {exc}", 0.0) for dt in steps],
-                "series": None, "reference_error": str(exc), "comparisons": []}
+                "series": None, "reference_error": str(exc), "comparisons": []}  # the reason
+
+
+def _measure_method(scenario: Scenario, method: str, steps: tuple, partner: str | None) -> dict:
+    ctx = run_context(scenario)
+    ref = scenario_reference(scenario)
     runner = RUNNERS[method]
     _warm(runner, ctx, steps)
     torque_free = ctx.torque is None
