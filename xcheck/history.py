@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 import sqlite3
 import statistics
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -113,18 +114,16 @@ class History:
     def __exit__(self, *exc):
         self.close()
 
+    @contextmanager
     def transaction(self):
         """``BEGIN IMMEDIATE`` ... ``COMMIT`` (``ROLLBACK`` on any exception, Ctrl-C included)."""
-        con = self.con
-
-        class _Tx:
-            def __enter__(self):
-                con.execute("BEGIN IMMEDIATE")
-
-            def __exit__(self, kind, exc, tb):
-                con.execute("COMMIT" if kind is None else "ROLLBACK")
-
-        return _Tx()
+        self.con.execute("BEGIN IMMEDIATE")
+        try:
+            yield
+        except BaseException:
+            self.con.execute("ROLLBACK")
+            raise
+        self.con.execute("COMMIT")
 
     # -------------------------------------------------------------------------------------------------
     def record(self, results: dict, *, started: str, finished: str, git_commit: str | None = None,

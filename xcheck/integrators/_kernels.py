@@ -69,7 +69,7 @@ if PYTHON_MODE:  # the interpreted twin: same code, Python torque callables
     def jit(f):
         return f
 
-    pjit = loop_jit = ijit = jit
+    pjit = ijit = jit
     prange = range
 
     def torque_eval(kind, P, T, t, q, w, out):
@@ -99,7 +99,6 @@ else:
     # Neither uses numba's runtime: no allocation, no reference counts (numba refuses code that would).
     jit = numba.njit(cache=True, error_model="numpy", _nrt=False)
     ijit = numba.njit(cache=True, error_model="numpy", inline="always", _nrt=False)
-    loop_jit = jit
     pjit = numba.njit(cache=True, parallel=True, error_model="numpy")
     prange = numba.prange
     torque_eval = fields.torque_eval  # inlined (its evaluators are calls)
@@ -925,7 +924,7 @@ def _entry_points(scheme: int):
     exec(compile(f"def run_{ident}(a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev):\n"
                  f"    return run({scheme}, {step}, a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev)\n",
                  __file__, "exec"), namespace)
-    one = namespace[f"run_{ident}"] = loop_jit(namespace[f"run_{ident}"])
+    one = namespace[f"run_{ident}"] = jit(namespace[f"run_{ident}"])
     exec(compile(f"def many_{ident}(a, Y0, I, Iinv, out, steps_done, status, K, Y, Yhat, work, y, y_prev):\n"
                  f"    for k in prange(Y0.shape[0]):\n"
                  f"        nd, st = run_{ident}(a, Y0[k], I[k], Iinv[k], out[k], K[k], Y[k], Yhat[k], work[k], y[k],\n"
