@@ -253,23 +253,19 @@ def compare(before: dict[tuple, float], after: dict[tuple, float], th: Threshold
         b = before.get(key)
         if a is None or b is None:
             continue
-        if metric.startswith("check:") or (metric == "passed" and m == ""):
+
+        def moved(kind, worse, better, at=dt):
+            if worse or better:
+                changes.append(Change(kind, s, m, at, b, a, worse))
+
+        if metric.startswith("check:") or (metric == "passed" and m == ""):  # scenario level: the check's name
             if (b >= 0.5) != (a >= 0.5):
-                changes.append(Change("check", s, metric.removeprefix("check:") if m == "" else m, None, b, a, a < 0.5))
+                changes.append(Change("check", s, metric.removeprefix("check:"), None, b, a, a < 0.5))
         elif metric == "attitude_error":
             floor = floors.get(s, 0.0)
-            if a > th.error_factor * max(b, floor):
-                changes.append(Change("error", s, m, dt, b, a, True))
-            elif b > th.error_factor * max(a, floor):
-                changes.append(Change("error", s, m, dt, b, a, False))
+            moved("error", a > th.error_factor * max(b, floor), b > th.error_factor * max(a, floor))
         elif metric == "observed_order":
-            if b - a > th.order_drop:
-                changes.append(Change("order", s, m, None, b, a, True))
-            elif a - b > th.order_drop:
-                changes.append(Change("order", s, m, None, b, a, False))
+            moved("order", b - a > th.order_drop, a - b > th.order_drop, at=None)
         elif (metric == "steps_per_second" and dt == finest.get((s, m))) or metric == "bench_steps_per_second":
-            if a < (1 - th.speed_drop) * b:
-                changes.append(Change("speed", s, m, dt, b, a, True))
-            elif b < (1 - th.speed_drop) * a:
-                changes.append(Change("speed", s, m, dt, b, a, False))
+            moved("speed", a < (1 - th.speed_drop) * b, b < (1 - th.speed_drop) * a)
     return changes

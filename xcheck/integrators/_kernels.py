@@ -402,13 +402,19 @@ def _enc_euler(q0, w0, seq):
 
 
 @jit
+def positive_w(q):
+    """``q`` with ``w >= 0`` (the sign xcheck.rotations returns), in place."""
+    if q[0] < 0.0:
+        for i in range(4):
+            q[i] = -q[i]
+
+
+@jit
 def euler_rows_to_quat(y, axes, q, e):
     """The quaternions (``w >= 0``, as xcheck.rotations.euler_to_quat) of the Euler-angle rows of ``y``."""
     for r in range(y.shape[0]):
         euler_quat(axes, y[r, 0:3], q[r], e)
-        if q[r, 0] < 0.0:
-            for i in range(4):
-                q[r, i] = -q[r, i]
+        positive_w(q[r])
 
 
 def _dec_euler(y, seq):
@@ -605,9 +611,7 @@ def dcm_rows_to_quat(y, q, ortho):
     for r in range(y.shape[0]):
         R = y[r, 0:9]
         dcm_to_quat(R, q[r])
-        if q[r, 0] < 0.0:
-            for i in range(4):
-                q[r, i] = -q[r, i]
+        positive_w(q[r])
         err = 0.0
         for i in range(3):
             for j in range(3):
