@@ -123,8 +123,8 @@ def test_speed_counts_only_the_same_host_and_the_finest_step(tmp_path, report):
                     if r.get("steps_per_second"):
                         r["steps_per_second"] *= 0.5
         _record(hist, report[0], 0, host="fast-host")
-        other = H.baseline_metrics(hist, host="another-host")
-        same = H.baseline_metrics(hist, host="fast-host")
+        other = H.baseline_metrics(hist, hist.runs(), host="another-host")
+        same = H.baseline_metrics(hist, hist.runs(), host="fast-host")
     assert not any(k[3] == "steps_per_second" for k in other)
     after = {(s, m, dt, k): v for s, m, dt, k, v in H.report_metrics(slow)}
     speed = [c for c in H.compare(same, after) if c.kind == "speed"]
@@ -140,8 +140,8 @@ def test_the_baseline_is_the_median_of_the_last_runs(tmp_path, report):
             doc = _patched(report[0], "gyroscope-nonsingular", "lie-rkmk4", error_factor=factor)
             run = _record(hist, doc, n)
             key = key or next(k for k in hist.metrics(run) if k[1] == "lie-rkmk4" and k[3] == "attitude_error")
-        base = H.baseline_metrics(hist, last=3)
-        base_all = H.baseline_metrics(hist, last=7)
+        base = H.baseline_metrics(hist, hist.runs()[-3:])
+        base_all = H.baseline_metrics(hist, hist.runs()[-7:])
     value = {s["scenario"]: s for s in report[0]["scenarios"]}["gyroscope-nonsingular"]["methods"]["lie-rkmk4"]
     v0 = next(r["attitude_error"] for r in value["runs"] if r["dt"] == key[2])
     assert base[key] == pytest.approx(3.0 * v0, rel=1e-12)  # median of 1000, 2, 3

@@ -31,14 +31,14 @@ from numba.core import caching, config
 
 from . import __version__
 
-__all__ = ["njit", "prange", "numba", "cache_root", "COMPILED_SOURCES"]
+__all__ = ["njit", "prange", "numba", "cache_root", "user_cache_home", "COMPILED_SOURCES"]
 
 PACKAGE = Path(__file__).resolve().parent
 #: The package files with ``cache=True`` functions, relative to the package folder.
 COMPILED_SOURCES = ("fields/kernel.py", "integrators/_kernels.py")
 
 
-def _user_cache_home() -> Path:
+def user_cache_home() -> Path:
     if os.environ.get("XCHECK_CACHE_DIR"):
         return Path(os.environ["XCHECK_CACHE_DIR"]).expanduser()
     if os.environ.get("XDG_CACHE_HOME"):
@@ -54,7 +54,7 @@ def cache_root() -> Path:
     digest = hashlib.sha256()
     for rel in COMPILED_SOURCES:
         digest.update((PACKAGE / rel).read_bytes())
-    return _user_cache_home() / f"numba-{__version__}-{digest.hexdigest()[:12]}"
+    return user_cache_home() / f"numba-{__version__}-{digest.hexdigest()[:12]}"
 
 
 class XcheckCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):

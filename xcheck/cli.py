@@ -1,7 +1,7 @@
 """The ``xcheck`` command line.
 
-``xcheck list | converge | run | report | bench``. Exit codes: 0 when every check passed, 1 when a check
-failed, 2 for bad input (the message names the file, key, argument or path), 130 when interrupted (Ctrl-C),
+``xcheck list | converge | run | report | nightly | bench``. Exit codes: 0 when every check passed (and, for
+``nightly``, nothing regressed), 1 when a check failed (or something regressed), 2 for bad input (the message names the file, key, argument or path), 130 when interrupted (Ctrl-C),
 143 when terminated (SIGTERM), 3 for a bug in xcheck (a one-line message asking to report it; the traceback
 with ``XCHECK_DEBUG=1``). Every input and output path is checked before any work starts.
 """
@@ -9,6 +9,7 @@ with ``XCHECK_DEBUG=1``). Every input and output path is checked before any work
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import signal
 import sys
@@ -244,6 +245,35 @@ WORKER_MODULES = ("xcheck.study", "xcheck.engines.mujoco", "xcheck.report.plots"
 
 
 def _cmd_report(args) -> int:
+    t0 = time.perf_counter()
+    studies, folder = _write_report(args)
+    for st in studies:
+        _print_study(st)
+    passed = all(st.passed for st in studies)
+    print(f"\nreport: {folder}/index.html ({'PASSED' if passed else 'FAILED'}); wall time "
+          f"{time.perf_counter() - t0:.1f} s")
+    return EXIT_OK if passed else EXIT_CHECK_FAILED
+
+
+def _resolve_scenarios(names):
+    """The scenarios named on the command line (every bundled one when none is), every input error before any
+    work, and distinct names (they name a report's files)."""
+    from .scenario import bundled_scenarios, resolve_scenario
+
+    scenarios = [resolve_scenario(n) for n in names or list(bundled_scenarios())]
+    first = {}
+    for sc in scenarios:
+        if sc.name in first:
+            raise UsageError(f"two scenarios are named {sc.name!r} ({first[sc.name]} and {sc.path}): a report "
+                             "needs distinct names (they name its files)")
+        first[sc.name] = sc.path
+    return scenarios
+
+
+def _write_report(args, sections=None, bench=None):
+    """The report of ``args.scenarios`` into ``args.out`` (``xcheck report``, and the first half of ``xcheck
+    nightly``): returns (studies, the report folder). ``bench``: the benchmark's rows, measured by the caller;
+    otherwise measured here with ``args.bench``."""
     from .pool import worker_pool
 
     t0 = time.perf_counter()
@@ -255,17 +285,9 @@ def _cmd_report(args) -> int:
     with worker_pool(args.workers, warm=WORKER_MODULES) if args.workers != 1 else nullcontext() as pool:
         from .report.io import check_output_dir
         from .report.render import draw_figures, write_report
-        from .scenario import bundled_scenarios, resolve_scenario
         from .study import run_studies, throughput_rows
 
-        names = args.scenarios or list(bundled_scenarios())
-        scenarios = [resolve_scenario(n) for n in names]  # every input error before any work
-        first = {}
-        for sc in scenarios:
-            if sc.name in first:
-                raise UsageError(f"two scenarios are named {sc.name!r} ({first[sc.name]} and {sc.path}): a report "
-                                 "needs distinct names (they name its files)")
-            first[sc.name] = sc.path
+        scenarios = getattr(args, "resolved", None) or _resolve_scenarios(args.scenarios)
         check_output_dir(args.out, "--out")
         marks.append(("scenarios read", time.perf_counter()))
         figures = {}
@@ -276,25 +298,130 @@ def _cmd_report(args) -> int:
         studies = run_studies(scenarios, quick=args.quick, progress=progress, pool=pool, workers=args.workers,
                               on_study=draw if pool is not None else None)
         marks.append(("studies", time.perf_counter()))
-        rows = throughput_rows(studies)
-        if args.bench:
+        if bench is None and args.bench:
             from .bench import run_bench
 
-            rows += run_bench(quick=args.quick, repeat=1)
-        folder = write_report(studies, args.out, throughput=rows, wall_time=time.perf_counter() - t0,
-                              quick=args.quick, pool=pool, figures=figures, trajectories=args.trajectories,
-                              marks=marks)
+            bench = run_bench(quick=args.quick, repeat=1)
+        folder = write_report(studies, args.out, throughput=throughput_rows(studies) + (bench or []), wall_time=time.perf_counter() - t0,
+                              quick=args.quick, pool=pool, figures=figures,
+                              trajectories=getattr(args, "trajectories", False), marks=marks, sections=sections)
         args.written = folder  # an interrupt from here on must not say "no report was written"
     marks.append(("workers stopped", time.perf_counter()))
+    if getattr(args, "timings", False):
+        print("where the time went: " + ", ".join(f"{what} {b - a:.2f} s" for (_, a), (what, b)
+                                                 in zip(marks, marks[1:])), file=sys.stderr)
+    return studies, folder
+
+
+def _cmd_nightly(args) -> int:
+    """The full report, compared with the history, then recorded in it (see :mod:`xcheck.nightly`)."""
+    from datetime import datetime, timezone
+
+    from . import nightly
+    from .history import open_history
+    from .report.io import check_output_dir
+
+    def now():
+        return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+    if args.keep is not None and args.keep < 1:
+        raise UsageError(f"--keep: expected a positive number of report folders, got {args.keep}")
+    if args.last < 1:
+        raise UsageError(f"--last: expected a positive number of runs, got {args.last}")
+    for name, value, top in (("--error-factor", args.error_factor, None), ("--order-drop", args.order_drop, None),
+                             ("--speed-drop", args.speed_drop, 1.0)):
+        if not (value > 0 and (top is None or value <= top) and value != float("inf")):
+            raise UsageError(f"{name}: expected a positive number{' at most 1' if top else ''}, got {value}")
+    thresholds = nightly.H.Thresholds(error_factor=args.error_factor, order_drop=args.order_drop,
+                                      speed_drop=args.speed_drop)
+    versions = []
+    if args.mujoco:
+        from .matrix import parse_versions
+
+        try:
+            versions = parse_versions(args.mujoco)
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
+    args.resolved = _resolve_scenarios(args.scenarios)
+    check_output_dir(args.out, "--out")
+    location = args.history or nightly.default_history(args.out)
+    nightly.check_history(location, args.baseline)
+    host, commit = nightly.host_name(), nightly.git_commit()
+    t0 = time.perf_counter()
+
+    # the other MuJoCo releases first, each in its environment: the main report shows the version table
+    matrix, installed = [], None
+    if versions:
+        from .matrix import installed_mujoco, run_version
+
+        installed = installed_mujoco()
+        for v in versions:
+            if v == installed:
+                continue
+            started = now()
+            vr = run_version(v, [str(sc.path) for sc in args.resolved], Path(args.out), quick=args.quick,
+                             workers=args.workers)
+            print(f"MuJoCo {v}: {vr.note}" + (f" ({vr.folder}/index.html)" if vr.folder else ""))
+            matrix.append((vr, started, now()))
+    bench, comparisons = [], []
+
+    def sections(results):
+        from .report.trends import history_section, version_table_blocks
+
+        main = nightly.compare_run(location, results, throughput=bench, host=host, baseline=args.baseline,
+                                   last=args.last, thresholds=thresholds)
+        comparisons.append(main)
+        for vr, _, _ in matrix:
+            if vr.results is not None:
+                comparisons.append(nightly.compare_run(location, vr.results, host=host, last=args.last,
+                                                       environment=f"mujoco=={vr.version}", thresholds=thresholds))
+        summary, blocks, figures = history_section(main)
+        results["history"] = [c.to_json() for c in comparisons]
+        if versions:
+            columns = [(vr.version, vr.results, vr.note, vr.folder and os.path.relpath(vr.folder, args.out))
+                       for vr, _, _ in matrix]
+            if installed in versions:
+                columns.append((installed, results, "the installed release", None))
+            columns.sort(key=lambda c: tuple(map(int, c[0].split("."))))
+            blocks += version_table_blocks(columns, thresholds)
+        return summary, blocks, figures
+
+    started = now()
+    if args.bench:  # measured before the report so that its History section can compare the rows
+        from .bench import run_bench
+
+        bench += run_bench(quick=args.quick, repeat=1)
+    studies, folder = _write_report(args, sections=sections, bench=bench)
+    finished = now()
+    # the report is complete: record it (and the matrix's runs) in one transaction each
+    with open_history(location) as hist:
+        run_id = hist.record(json.loads((folder / "results.json").read_text()), started=started, finished=finished,
+                             git_commit=commit, host=host, report=str(folder.resolve()), throughput=bench)
+        for vr, v_started, v_finished in matrix:
+            if vr.results is not None:
+                hist.record(vr.results, started=v_started, finished=v_finished, git_commit=commit, host=host,
+                            report=str(vr.folder), environment=f"mujoco=={vr.version}")
     for st in studies:
         _print_study(st)
     passed = all(st.passed for st in studies)
-    print(f"\nreport: {folder}/index.html ({'PASSED' if passed else 'FAILED'}); wall time "
-          f"{time.perf_counter() - t0:.1f} s")
-    if args.timings:
-        print("where the time went: " + ", ".join(f"{what} {b - a:.2f} s" for (_, a), (what, b)
-                                                 in zip(marks, marks[1:])), file=sys.stderr)
-    return EXIT_OK if passed else EXIT_CHECK_FAILED
+    regressions = [c for cmp in comparisons for c in cmp.regressions]
+    print()
+    for cmp in comparisons:
+        where = f" [{cmp.environment}]" if cmp.environment else ""
+        if cmp.previous is None:
+            print(f"history{where}: the first run of its series")
+        for c in cmp.regressions + [c for c in cmp.since_baseline if not c.regression]:
+            print(c.line() + where)
+    if args.keep is not None:
+        roots = [Path(args.out)] + [Path(args.out) / f"mujoco-{vr.version}" for vr, _, _ in matrix]
+        removed = [p for root in roots if root.is_dir() for p in nightly.keep_newest(root, args.keep, protect=[folder])]
+        if removed:
+            print(f"--keep {args.keep}: removed {len(removed)} older report folder{'s' * (len(removed) > 1)}")
+    verdict = ("PASSED, no regression" if passed and not regressions else
+               f"{'PASSED' if passed else 'FAILED'}, {len(regressions)} regression{'s' * (len(regressions) != 1)}")
+    print(f"\nnightly: run {run_id} recorded in {nightly.H.display(location)}; report {folder}/index.html "
+          f"({verdict}); wall time {time.perf_counter() - t0:.1f} s")
+    return EXIT_OK if passed and not regressions else EXIT_CHECK_FAILED
 
 
 def _cmd_bench(args) -> int:
@@ -353,6 +480,30 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
     p.set_defaults(func=_cmd_report)
 
+    p = sub.add_parser("nightly", help="the full report, compared with the history and recorded in it")
+    p.add_argument("scenarios", nargs="*", help="bundled names or .toml files (default: every bundled scenario)")
+    p.add_argument("--out", default="reports", metavar="DIR", help="where reports go (default: ./reports)")
+    p.add_argument("--history", metavar="PATH|URL",
+                   help="the history: a SQLite file (default: OUT/history.sqlite) or a postgresql:// URL")
+    p.add_argument("--baseline", type=int, metavar="RUN_ID",
+                   help="compare with this stored run instead of the rolling baseline")
+    p.add_argument("--last", type=int, default=7, metavar="N",
+                   help="the rolling baseline: the median of the last N runs (default 7)")
+    p.add_argument("--keep", type=int, metavar="N", help="keep the newest N report folders, delete older ones")
+    p.add_argument("--error-factor", type=float, default=10.0, metavar="F",
+                   help="a regression: an attitude error grown more than F times above its study's floor (10)")
+    p.add_argument("--order-drop", type=float, default=0.3, metavar="D",
+                   help="a regression: an observed order lower by more than D (0.3)")
+    p.add_argument("--speed-drop", type=float, default=0.3, metavar="FRACTION",
+                   help="a regression: steps per second lower by more than this fraction, same host only "
+                        "(0.3; 1 turns speed comparisons off, for a machine too noisy to time on)")
+    p.add_argument("--bench", action="store_true", help="also run xcheck bench and record its rows")
+    p.add_argument("--mujoco", metavar="VERSIONS",
+                   help="comma-separated MuJoCo releases to run the same scenarios against (the version matrix)")
+    p.add_argument("--quick", action="store_true", help="quick reports (a series of their own in the history)")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
+    p.set_defaults(func=_cmd_nightly)
+
     p = sub.add_parser("bench", help="steps per second of every method, ours and the engines'")
     p.add_argument("--json", metavar="PATH", help="write the rows as JSON (schema xcheck.bench/1)")
     p.add_argument("--quick", action="store_true", help="shorter runs, a smaller batch")
@@ -389,6 +540,7 @@ def _run(args) -> int:
     """``args.func(args)`` with every failure a user can cause turned into a message and an exit code."""
     from concurrent.futures.process import BrokenProcessPool
 
+    from .history import HistoryError
     from .models import ModelError
     from .report.io import OutputPathError
     from .scenario import ScenarioError
@@ -405,7 +557,7 @@ def _run(args) -> int:
         print("xcheck: error: a worker process died (killed from outside, or out of memory); no report was written",
               file=sys.stderr)
         return EXIT_BUG
-    except (ScenarioError, ModelError, UsageError, OutputPathError) as exc:
+    except (ScenarioError, ModelError, UsageError, OutputPathError, HistoryError) as exc:
         print(f"xcheck: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt as exc:

@@ -1,12 +1,16 @@
 """The nightly history: every figure of every report, in one database, and what changed between runs (issue 11).
 
-A history is a SQLite file (Python's own ``sqlite3``; ``reports/history.sqlite`` by default) with three tables:
+A history is a SQLite file (Python's own ``sqlite3``; ``reports/history.sqlite`` by default) or, for a team,
+a PostgreSQL database (``postgresql://...``, through the optional ``psycopg`` driver: ``pip install
+xcheck[postgres]``), with three tables:
 
-``xcheck_meta``  (key, value): ``application = xcheck.history`` and ``schema_version``; a file without it is
-                 not an xcheck history and is refused untouched, as is one written by a newer schema.
+``xcheck_meta``  (key, value): ``application = xcheck.history`` and ``schema_version``; a database without it
+                 is not an xcheck history and is refused untouched, as is one written by a newer schema.
 ``runs``         one row per recorded report: id, start and end time (UTC, ISO 8601), git commit of the
                  project (when it ran from a checkout), versions of xcheck, mujoco, numpy, scipy, numba and
-                 python, host, CPU count, whether it passed, the report folder.
+                 python, host, CPU count, whether it passed, the report folder, whether it was a quick report,
+                 and its environment (``""``: the one xcheck runs in; ``mujoco==3.6.0``: a run of the MuJoCo
+                 version matrix in its own virtual environment).
 ``metrics``      one row per figure: run id, scenario, method, step ``dt`` [s] (NULL for a figure of the whole
                  method or scenario), metric name, value. Names: ``attitude_error`` ``max_attitude_error``
                  ``energy_drift`` ``momentum_drift`` ``norm_drift`` ``wall_time`` ``steps_per_second`` per run;
@@ -16,8 +20,8 @@ A history is a SQLite file (Python's own ``sqlite3``; ``reports/history.sqlite``
                  in the method name when > 1).
 
 A run is recorded in one transaction after its report is complete: a run that fails or is interrupted
-records nothing, and a killed writer leaves the file as it was (SQLite's journal). Concurrent writers wait
-for each other (a busy timeout).
+records nothing, and a killed writer leaves the database as it was. Concurrent writers wait for each other
+(SQLite: a busy timeout; PostgreSQL: its own locking).
 """
 
 from __future__ import annotations
@@ -30,80 +34,188 @@ from dataclasses import dataclass
 from pathlib import Path
 
 APPLICATION = "xcheck.history"
-#: Raise with every change of the tables, and migrate older files in :func:`_migrate`.
+#: Raise with every change of the tables, and migrate older databases in ``History.__init__``.
 SCHEMA_VERSION = 1
 #: Seconds a writer waits for another's transaction before giving up.
 BUSY_TIMEOUT = 60.0
 
 RUN_COLUMNS = ("started", "finished", "git_commit", "xcheck", "mujoco", "numpy", "scipy", "numba", "python",
-               "host", "cpus", "passed", "report")
+               "host", "cpus", "passed", "report", "quick", "environment")
 RUN_METRICS = ("attitude_error", "max_attitude_error", "energy_drift", "momentum_drift", "norm_drift", "wall_time",
                "steps_per_second")
+#: Versions whose change between two runs is marked on the History section's time axis.
+VERSION_COLUMNS = ("xcheck", "mujoco", "numpy", "scipy", "numba", "python")
+TABLES = ("xcheck_meta", "runs", "metrics")
 
+# {id} and {real} are the dialect's: SQLite's REAL is a double, PostgreSQL's a single (DOUBLE PRECISION there)
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS xcheck_meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS runs (
-    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    id {id},
     started TEXT NOT NULL, finished TEXT NOT NULL, git_commit TEXT,
     xcheck TEXT, mujoco TEXT, numpy TEXT, scipy TEXT, numba TEXT, python TEXT,
-    host TEXT, cpus INTEGER, passed INTEGER NOT NULL, report TEXT);
+    host TEXT, cpus INTEGER, passed INTEGER NOT NULL, report TEXT,
+    quick INTEGER NOT NULL DEFAULT 0, environment TEXT NOT NULL DEFAULT '');
 CREATE TABLE IF NOT EXISTS metrics (
     run_id INTEGER NOT NULL REFERENCES runs(id),
-    scenario TEXT NOT NULL, method TEXT NOT NULL, dt REAL, metric TEXT NOT NULL, value REAL);
+    scenario TEXT NOT NULL, method TEXT NOT NULL, dt {real}, metric TEXT NOT NULL, value {real});
 CREATE INDEX IF NOT EXISTS metrics_by_run ON metrics (run_id);
-CREATE INDEX IF NOT EXISTS metrics_by_key ON metrics (scenario, method, metric, dt);
+CREATE INDEX IF NOT EXISTS metrics_by_key ON metrics (scenario, method, metric, dt)
 """
 
 
 class HistoryError(ValueError):
     """A history that cannot be used (not a database, not xcheck's, a newer schema, cannot be opened): the
-    message names the file and what was expected; the file is left untouched."""
+    message names the file or URL and what was expected; the database is left untouched."""
 
 
-def _check_existing(path: Path) -> None:
-    """Refuse, without writing anything, a file that is not an xcheck history of this or an older schema."""
-    if path.is_dir():
-        raise HistoryError(f"{path}: is a folder; expected an xcheck history file (SQLite)")
-    try:
-        con = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=BUSY_TIMEOUT)
-    except sqlite3.Error as exc:
-        raise HistoryError(f"{path}: cannot be opened ({exc})") from None
-    try:
-        tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
-        if not tables:
-            return  # an empty SQLite file: becomes a history
-        if "xcheck_meta" not in tables:
-            raise HistoryError(f"{path}: a SQLite database but not an xcheck history (no xcheck_meta table; "
-                               f"it has {', '.join(sorted(tables))}); give another --history file")
-        meta = dict(con.execute("SELECT key, value FROM xcheck_meta"))
-        if meta.get("application") != APPLICATION:
-            raise HistoryError(f"{path}: not an xcheck history (application {meta.get('application')!r})")
-        version = int(meta.get("schema_version", "0"))
-        if version > SCHEMA_VERSION:
-            raise HistoryError(f"{path}: written by a newer xcheck (history schema {version}; this release reads "
-                               f"up to {SCHEMA_VERSION}); upgrade xcheck or give another --history file")
-    except sqlite3.DatabaseError as exc:
-        raise HistoryError(f"{path}: not an xcheck history: {exc}") from None
-    finally:
-        con.close()
+def is_url(location) -> bool:
+    return str(location).startswith(("postgresql://", "postgres://"))
+
+
+def display(location) -> str:
+    """A history's location for messages: a URL without its password."""
+    text = str(location)
+    if is_url(text) and "@" in text:
+        scheme, rest = text.split("://", 1)
+        cred, host = rest.rsplit("@", 1)
+        return f"{scheme}://{cred.split(':', 1)[0]}@{host}"
+    return text
+
+
+# -----------------------------------------------------------------------------------------------------
+# the two databases: what differs between them, and nothing else (SQL is written with SQLite's ``?``)
+# -----------------------------------------------------------------------------------------------------
+class _SQLite:
+    id_column, real = "INTEGER PRIMARY KEY AUTOINCREMENT", "REAL"
+    errors = (sqlite3.Error,)
+
+    def __init__(self, path: Path):
+        self.where = str(path)
+        if path.is_dir():
+            raise HistoryError(f"{path}: is a folder; expected an xcheck history file (SQLite)")
+        if not path.parent.is_dir():
+            raise HistoryError(f"{path}: its folder {path.parent} does not exist")
+        self.path = path
+
+    def connect(self, read_only: bool):
+        if read_only:  # nothing is created or written by a check
+            return sqlite3.connect(f"{self.path.resolve().as_uri()}?mode=ro", uri=True, timeout=BUSY_TIMEOUT)
+        return sqlite3.connect(self.path, timeout=BUSY_TIMEOUT, isolation_level=None)
+
+    def exists(self) -> bool:
+        return self.path.exists()
+
+    def tables(self, con) -> set[str]:
+        return {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+
+    def begin(self, con) -> None:
+        con.execute("BEGIN IMMEDIATE")  # the write lock now: two writers queue instead of deadlocking
+
+    @staticmethod
+    def sql(statement: str) -> str:
+        return statement
+
+    @staticmethod
+    def executemany(con, statement, rows) -> None:
+        con.executemany(statement, rows)
+
+
+class _Postgres:
+    id_column, real = "BIGINT GENERATED ALWAYS AS IDENTITY PRIMARY KEY", "DOUBLE PRECISION"
+
+    def __init__(self, url: str):
+        self.where = display(url)
+        try:
+            import psycopg
+        except ImportError:
+            raise HistoryError(f"{self.where}: a PostgreSQL history needs the psycopg driver: "
+                               "pip install 'xcheck[postgres]'") from None
+        self.psycopg, self.url = psycopg, url
+        self.errors = (psycopg.Error,)
+
+    def connect(self, read_only: bool):
+        try:
+            return self.psycopg.connect(self.url, autocommit=True, connect_timeout=int(BUSY_TIMEOUT))
+        except self.psycopg.Error as exc:
+            raise HistoryError(f"{self.where}: cannot be opened ({str(exc).strip().splitlines()[0]})") from None
+
+    def exists(self) -> bool:
+        return True
+
+    def tables(self, con) -> set[str]:
+        return {r[0] for r in con.execute("SELECT table_name FROM information_schema.tables "
+                                          "WHERE table_schema = current_schema()")}
+
+    def begin(self, con) -> None:
+        con.execute("BEGIN")
+        con.execute("SELECT pg_advisory_xact_lock(7207315)")  # one writer at a time, as with SQLite
+
+    @staticmethod
+    def sql(statement: str) -> str:
+        return statement.replace("?", "%s")
+
+    @staticmethod
+    def executemany(con, statement, rows) -> None:
+        with con.cursor() as cur:
+            cur.executemany(statement, rows)
+
+
+def _refuse_foreign(db, con) -> bool:
+    """Refuse a database that is not an xcheck history of this or an older schema (read only); returns whether
+    it is one (False: an empty database, which becomes one when written)."""
+    tables = db.tables(con)
+    if "xcheck_meta" not in tables:
+        ours = tables & set(TABLES)
+        if ours or (tables and not is_url(db.where)):
+            raise HistoryError(f"{db.where}: a database but not an xcheck history (no xcheck_meta table; it has "
+                               f"{', '.join(sorted(tables))}); give another --history")
+        return False
+    meta = dict(con.execute("SELECT key, value FROM xcheck_meta").fetchall())
+    if meta.get("application") != APPLICATION:
+        raise HistoryError(f"{db.where}: not an xcheck history (application {meta.get('application')!r})")
+    version = int(meta.get("schema_version", "0"))
+    if version > SCHEMA_VERSION:
+        raise HistoryError(f"{db.where}: written by a newer xcheck (history schema {version}; this release reads up "
+                           f"to {SCHEMA_VERSION}); upgrade xcheck or give another --history")
+    return True
 
 
 class History:
     """An open history (see the module docstring); use :func:`open_history`."""
 
-    def __init__(self, path: Path):
-        self.path = Path(path)
-        if self.path.exists():
-            _check_existing(self.path)
+    def __init__(self, location, *, read_only: bool = False):
+        self.db = _Postgres(str(location)) if is_url(location) else _SQLite(Path(location))
+        self.where = self.db.where
+        self.read_only = read_only
+        self.empty = True  # no tables yet (a new file, or an empty database)
+        if self.db.exists():
+            con = None
+            try:
+                con = self.db.connect(read_only=True)
+                self.empty = not _refuse_foreign(self.db, con)
+            except self.db.errors as exc:
+                raise HistoryError(f"{self.where}: not an xcheck history, or it cannot be read: {exc}") from None
+            finally:
+                if con is not None:
+                    con.close()
+        elif read_only:
+            raise HistoryError(f"{self.where}: no such history")
         try:
-            self.con = sqlite3.connect(self.path, timeout=BUSY_TIMEOUT, isolation_level=None)
-        except sqlite3.Error as exc:
-            raise HistoryError(f"{self.path}: cannot be opened ({exc})") from None
-        with self.transaction():
-            for statement in filter(str.strip, _SCHEMA.split(";")):
+            self.con = self.db.connect(read_only=read_only)
+        except self.db.errors as exc:
+            raise HistoryError(f"{self.where}: cannot be opened ({exc})") from None
+        if read_only:
+            return
+        self.empty = False
+        with self.transaction():  # a fresh database becomes a history, atomically
+            for statement in _SCHEMA.format(id=self.db.id_column, real=self.db.real).split(";"):
                 self.con.execute(statement)
-            self.con.execute("INSERT OR IGNORE INTO xcheck_meta VALUES ('application', ?)", (APPLICATION,))
-            self.con.execute("INSERT OR IGNORE INTO xcheck_meta VALUES ('schema_version', ?)", (str(SCHEMA_VERSION),))
+            for key, value in (("application", APPLICATION), ("schema_version", str(SCHEMA_VERSION))):
+                self._execute("INSERT INTO xcheck_meta VALUES (?, ?) ON CONFLICT (key) DO NOTHING", (key, value))
+
+    def _execute(self, statement, params=()):
+        return self.con.execute(self.db.sql(statement), params)
 
     def close(self) -> None:
         self.con.close()
@@ -116,8 +228,9 @@ class History:
 
     @contextmanager
     def transaction(self):
-        """``BEGIN IMMEDIATE`` ... ``COMMIT`` (``ROLLBACK`` on any exception, Ctrl-C included)."""
-        self.con.execute("BEGIN IMMEDIATE")
+        """BEGIN (SQLite: IMMEDIATE, the write lock at once) ... COMMIT; ROLLBACK on any exception, Ctrl-C
+        included."""
+        self.db.begin(self.con)
         try:
             yield
         except BaseException:
@@ -127,42 +240,53 @@ class History:
 
     # -------------------------------------------------------------------------------------------------
     def record(self, results: dict, *, started: str, finished: str, git_commit: str | None = None,
-               host: str | None = None, report: str | None = None, throughput=None) -> int:
+               host: str | None = None, report: str | None = None, throughput=None, environment: str = "") -> int:
         """Store a report's ``results.json`` document (and ``xcheck bench`` rows) as one run; returns its id."""
-        versions = results.get("versions", {})
-        row = {"started": started, "finished": finished, "git_commit": git_commit,
-               **{k: versions.get(k) for k in ("xcheck", "mujoco", "numpy", "scipy", "numba", "python")},
-               "host": host, "cpus": results.get("machine", {}).get("cpus"), "passed": int(bool(results["passed"])),
-               "report": report}
-        metrics = list(report_metrics(results))
-        metrics += [(r["scenario"], r["method"] + (f" x{r['batch']}" if r.get("batch", 1) > 1 else ""), None,
-                     "bench_steps_per_second", r["steps_per_second"]) for r in throughput or ()]
+        row = run_row(results, started=started, finished=finished, git_commit=git_commit, host=host, report=report,
+                      environment=environment)
+        metrics = list(report_metrics(results)) + list(bench_metrics(throughput))
         with self.transaction():
-            cur = self.con.execute(f"INSERT INTO runs ({', '.join(RUN_COLUMNS)}) VALUES "
-                                   f"({', '.join('?' * len(RUN_COLUMNS))})", [row[c] for c in RUN_COLUMNS])
-            run_id = cur.lastrowid
-            self.con.executemany("INSERT INTO metrics VALUES (?, ?, ?, ?, ?, ?)",
-                                 [(run_id, *m) for m in metrics])
+            run_id = self._execute(f"INSERT INTO runs ({', '.join(RUN_COLUMNS)}) VALUES "
+                                   f"({', '.join('?' * len(RUN_COLUMNS))}) RETURNING id",
+                                   [row[c] for c in RUN_COLUMNS]).fetchone()[0]
+            self.db.executemany(self.con, self.db.sql("INSERT INTO metrics VALUES (?, ?, ?, ?, ?, ?)"),
+                                [(run_id, *m[:4], _finite(m[4])) for m in metrics])
         return run_id
 
-    def runs(self) -> list[dict]:
-        """Every run, oldest first."""
-        cur = self.con.execute(f"SELECT id, {', '.join(RUN_COLUMNS)} FROM runs ORDER BY id")
+    def runs(self, *, quick: bool | None = None, environment: str | None = None) -> list[dict]:
+        """Every run, oldest first (only quick or full ones, only one environment, when asked)."""
+        if self.empty:
+            return []
+        cur = self._execute(f"SELECT id, {', '.join(RUN_COLUMNS)} FROM runs ORDER BY id")
         names = [d[0] for d in cur.description]
-        return [dict(zip(names, r)) for r in cur]
+        rows = [dict(zip(names, r)) for r in cur.fetchall()]
+        return [r for r in rows if (quick is None or bool(r["quick"]) == quick)
+                and (environment is None or r["environment"] == environment)]
 
     def metrics(self, run_id: int) -> dict[tuple, float]:
         """``{(scenario, method, dt, metric): value}`` of one run."""
-        return {(s, m, dt, k): v for s, m, dt, k, v in self.con.execute(
-            "SELECT scenario, method, dt, metric, value FROM metrics WHERE run_id = ?", (run_id,))}
+        return {(s, m, dt, k): v for s, m, dt, k, v in self._execute(
+            "SELECT scenario, method, dt, metric, value FROM metrics WHERE run_id = ?", (run_id,)).fetchall()}
 
 
-def open_history(path) -> History:
-    """The history at ``path`` (created when missing; :class:`HistoryError` when it cannot be used)."""
-    path = Path(path)
-    if not path.parent.exists():
-        raise HistoryError(f"{path}: its folder {path.parent} does not exist")
-    return History(path)
+def _finite(value):
+    return None if value is None or not math.isfinite(value) else float(value)
+
+
+def run_row(results: dict, *, started: str, finished: str, git_commit=None, host=None, report=None,
+            environment: str = "") -> dict:
+    """A report's row of the ``runs`` table (without its id)."""
+    versions = results.get("versions", {})
+    return {"started": started, "finished": finished, "git_commit": git_commit,
+            **{k: versions.get(k) for k in VERSION_COLUMNS},
+            "host": host, "cpus": results.get("machine", {}).get("cpus"), "passed": int(bool(results["passed"])),
+            "report": report, "quick": int(bool(results.get("quick"))), "environment": environment}
+
+
+def open_history(location, *, read_only: bool = False) -> History:
+    """The history at ``location``, a SQLite file (created when missing) or a ``postgresql://`` URL;
+    :class:`HistoryError` when it cannot be used. ``read_only``: an existing history, for reading."""
+    return History(location, read_only=read_only)
 
 
 def report_metrics(results: dict):
@@ -183,6 +307,19 @@ def report_metrics(results: dict):
                 for metric in RUN_METRICS:
                     if r.get(metric) is not None:
                         yield name, method, r["dt"], metric, r[metric]
+
+
+def bench_metrics(throughput):
+    """The ``(scenario, method, None, "bench_steps_per_second", value)`` rows of ``xcheck bench`` rows (the batch
+    size in the method's name when > 1)."""
+    for r in throughput or ():
+        yield (r["scenario"], r["method"] + (f" x{r['batch']}" if r.get("batch", 1) > 1 else ""), None,
+               "bench_steps_per_second", r["steps_per_second"])
+
+
+def as_dict(rows) -> dict[tuple, float]:
+    """``{(scenario, method, dt, metric): value}`` of metric rows."""
+    return {row[:4]: row[4] for row in rows}
 
 
 # -----------------------------------------------------------------------------------------------------
@@ -216,11 +353,9 @@ class Thresholds:
     speed_drop: float = 0.30  # a fraction; speed only against runs on the same host
 
 
-def baseline_metrics(history: History, before_run: int | None = None, *, last: int = 7,
-                     host: str | None = None) -> dict[tuple, float]:
-    """The rolling baseline: per figure, the median over the last ``last`` runs (before ``before_run``). Speeds
-    count only runs on ``host``."""
-    runs = [r for r in history.runs() if before_run is None or r["id"] < before_run][-last:]
+def baseline_metrics(history: History, runs: list[dict], *, host: str | None = None) -> dict[tuple, float]:
+    """Per figure, the median over ``runs`` (rows of :meth:`History.runs`: the rolling baseline is the last N
+    runs of a series, ``--baseline RUN_ID`` one run). Speeds count only runs on ``host``."""
     values: dict[tuple, list] = {}
     for r in runs:
         for key, v in history.metrics(r["id"]).items():
@@ -228,6 +363,16 @@ def baseline_metrics(history: History, before_run: int | None = None, *, last: i
                 continue
             values.setdefault(key, []).append(v)
     return {k: statistics.median(v) for k, v in values.items()}
+
+
+#: A report's run shorter than this [s] times the clock and the caches more than the integrator: its speed is
+#: not compared (the benchmark's rows always are: they are built for timing).
+MIN_TIMED = 0.05
+
+
+def _timed(metrics: dict, key) -> bool:
+    wall = metrics.get((*key[:3], "wall_time"))
+    return wall is not None and wall >= MIN_TIMED
 
 
 def _is_speed(key) -> bool:
@@ -240,7 +385,8 @@ def compare(before: dict[tuple, float], after: dict[tuple, float], th: Threshold
     A regression: a check that passed and now fails; an attitude error (per run) that grew by more than
     ``error_factor`` above the study's round-off floor (``order_floor``); an observed order that dropped by more
     than ``order_drop``; a speed that dropped by more than ``speed_drop`` (speeds are compared at the finest
-    step of each method, the longest run, and for ``xcheck bench`` rows). The same rules the other way round
+    step of each method, its longest run, when it lasted at least :data:`MIN_TIMED` in both; and for ``xcheck
+    bench`` rows). The same rules the other way round
     are improvements."""
     changes = []
     floors = {k[0]: v for k, v in after.items() if k[3] == "order_floor" and v is not None}
@@ -266,6 +412,7 @@ def compare(before: dict[tuple, float], after: dict[tuple, float], th: Threshold
             moved("error", a > th.error_factor * max(b, floor), b > th.error_factor * max(a, floor))
         elif metric == "observed_order":
             moved("order", b - a > th.order_drop, a - b > th.order_drop, at=None)
-        elif (metric == "steps_per_second" and dt == finest.get((s, m))) or metric == "bench_steps_per_second":
+        elif metric == "bench_steps_per_second" or (metric == "steps_per_second" and dt == finest.get((s, m))
+                                                    and _timed(before, key) and _timed(after, key)):
             moved("speed", a < (1 - th.speed_drop) * b, b < (1 - th.speed_drop) * a)
     return changes

@@ -34,7 +34,7 @@ def _fmt(x, spec=".2e"):
 # ------------------------------------------------------------------------------------------------
 def write_report(studies, out_root, *, stamp: str | None = None, throughput=None, wall_time=None,
                  quick=False, pool=None, figures: dict | None = None, trajectories: bool = False,
-                 marks: list | None = None) -> Path:
+                 marks: list | None = None, sections=None) -> Path:
     """Write the report of ``studies`` (list of StudyResult) under ``out_root/<stamp>/`` atomically and
     point ``out_root/latest`` at it. Returns the report folder.
 
@@ -42,7 +42,10 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
     future of it (drawn in a worker while other studies ran); the others are drawn here, in ``pool`` when
     given. ``trajectories``: also the sampled finest run of every method as CSV
     (``trajectories/<scenario>/<method>.csv``, ~4 MB a scenario). ``marks``: a list to which ``(phase,
-    time.perf_counter())`` pairs are appended (``xcheck report --timings``).
+    time.perf_counter())`` pairs are appended (``xcheck report --timings``). ``sections``: a function of the
+    results document (which it may extend) returning ``(summary, blocks, figures)``: a sentence for the first
+    screen, blocks placed before the appendix, and their figures ``[(file, caption, png)]`` (``xcheck nightly``'s
+    History section).
 
     The report is written into a hidden ``.incomplete-<stamp>-<host>-<pid>`` folder and renamed into place
     when complete: on any error or interrupt the workers are stopped first and the folder removed; a
@@ -81,8 +84,13 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
                    "quick": quick, "versions": versions(), "machine": machine(),
                    "wall_time": wall_time, "passed": all(st.passed for st in studies),
                    "scenarios": [st.data for st in studies], "throughput": throughput or []}
+        summary, extra = None, []
+        if sections is not None:
+            summary, extra, drawn = sections(results)
+            for file, _, png in drawn:
+                write_bytes_atomic(tmp / "plots" / file, png)
         write_json_atomic(tmp / "results.json", results)
-        document = report_document(studies, results, captions)
+        document = report_document(studies, results, captions, extra=extra, summary=summary)
         write_text_atomic(tmp / "report.md", to_markdown(document))
         write_text_atomic(tmp / "index.html", to_html(document, tmp / "plots", title="xcheck cross-check report"))
         final = _rename_into_place(tmp, out_root, stamp)
@@ -203,9 +211,10 @@ LEGEND = [("Each cell: the observed order p and the attitude error [rad] at the 
           ("info", "mark"), (" reported without checks.", None)]
 
 
-def report_document(studies, results: dict, figures: dict) -> list:
-    """The report's blocks: the verdict and the front table, one section per scenario, the appendix.
-    ``results`` is the report's JSON (for its metadata), ``figures`` maps a scenario to its ``[(file, caption)]``."""
+def report_document(studies, results: dict, figures: dict, *, extra=(), summary: str | None = None) -> list:
+    """The report's blocks: the verdict and the front table, one section per scenario, ``extra`` blocks, the
+    appendix. ``results`` is the report's JSON (for its metadata), ``figures`` maps a scenario to its
+    ``[(file, caption)]``; ``summary`` a sentence under the verdict."""
     ok = results["passed"]
     when = f"Created {results['created']}" + (f" in {results['wall_time']:.1f} s" if results["wall_time"] else "")
     if results["quick"]:
@@ -215,6 +224,7 @@ def report_document(studies, results: dict, figures: dict) -> list:
               Verdict("PASSED: every check passed", "pass") if ok else Verdict("FAILED: some checks failed", "fail"),
               Para(when + ". Versions: " + ", ".join(f"{k} {v}" for k, v in results["versions"].items()) +
                    f". Machine: {results['machine']['platform']}, {results['machine']['cpus']} CPUs.", small=True),
+              *([Para([(summary, "b")])] if summary else []),
               Para(LEGEND)]
     methods = []
     for st in studies:
@@ -226,6 +236,7 @@ def report_document(studies, results: dict, figures: dict) -> list:
         blocks.append(Para([(f"{st.name}: ", "b"), (scenario_summary(st), None)]))
     for st in studies:
         blocks += _scenario_blocks(st, figures.get(st.name, []))
+    blocks += list(extra)
     blocks += _appendix_blocks(results)
     return blocks
 

@@ -1,0 +1,318 @@
+"""``xcheck nightly`` (issue 11): runs recorded in a history, regressions caught and named, bad histories refused
+untouched, concurrent runs, ``--keep``, the MuJoCo version matrix and a PostgreSQL history."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import signal
+import sqlite3
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from xcheck import history as H
+from xcheck import nightly
+from xcheck.scenario import SCENARIO_DIR
+
+SCENARIO = "gyroscope-nonsingular"
+
+
+def _nightly(*args, env=None, popen=False):
+    """``xcheck nightly --quick`` in a process of its own. Speeds are not compared (``--speed-drop 1``): the
+    tests share two cores, and runs of a few milliseconds are timed there (the speed rules are tested in
+    test_history.py on stored numbers)."""
+    cmd = [sys.executable, "-m", "xcheck", "nightly", "--quick", "--workers", "1", "--speed-drop", "1",
+           *map(str, args)]
+    kwargs = dict(stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                  preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    if popen:
+        return subprocess.Popen(cmd, **kwargs)
+    return subprocess.run(cmd, **kwargs)
+
+
+def _scenario_copy(folder: Path, extra: str = "") -> Path:
+    """The bundled gyroscope scenario as a file of the user's, with ``extra`` TOML appended."""
+    text = (SCENARIO_DIR / f"{SCENARIO}.toml").read_text()
+    text = text.replace('model = "../gyroscope.xml"', f'model = "{(SCENARIO_DIR.parent / "gyroscope.xml").as_posix()}"')
+    path = folder / f"{SCENARIO}.toml"
+    path.write_text(text + extra)
+    return path
+
+
+def _files(folder: Path) -> dict:
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_two_runs_then_an_injected_regression_exits_1_and_names_it(tmp_path):
+    """Runs 1 and 2 pass into a fresh history (exit 0). Then the stored lie-rkmk4 errors are patched 10^4
+    smaller (so that this run's are 10^4 larger than the baseline's) and the scenario's agreement tolerance made
+    impossible (1e-30 rad): run 3 exits 1 and names both, in its output and in its report."""
+    out, scenario = tmp_path / "reports", _scenario_copy(tmp_path)
+    for n in (1, 2):
+        proc = _nightly(scenario, "--out", out)
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        assert f"nightly: run {n} recorded in {out / 'history.sqlite'}" in proc.stdout
+    assert "the first run of its series" not in proc.stdout
+    con = sqlite3.connect(out / "history.sqlite")
+    con.execute("UPDATE metrics SET value = value * 1e-4 WHERE method = 'lie-rkmk4' AND metric = 'attitude_error'")
+    con.commit()
+    con.close()
+    _scenario_copy(tmp_path, "\n[checks]\nagreement = 1e-30\n")
+    proc = _nightly(scenario, "--out", out)
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    check = f"REGRESSION: {SCENARIO} / agreement:mujoco-rk4: check passed -> failed"
+    error = re.compile(rf"REGRESSION: {SCENARIO} / lie-rkmk4 at dt = 0.015625 s: attitude error \S+ -> \S+")
+    assert check in proc.stdout and error.search(proc.stdout), proc.stdout
+    assert "FAILED, 2 regressions" not in proc.stdout and "FAILED" in proc.stdout.splitlines()[-1]
+    report = (out / "latest" / "report.md").read_text()
+    assert "## History — ❌ regression" in report
+    assert f"| ❌ REGRESSION | {SCENARIO} | agreement:mujoco-rk4 |" in report
+    assert f"| ❌ REGRESSION | {SCENARIO} | lie-rkmk4 | 1/64 | attitude error [rad] |" in report
+    results = json.loads((out / "latest" / "results.json").read_text())
+    lines = [c["line"] for c in results["history"][0]["since_baseline"] if c["regression"]]
+    assert check in lines
+    with H.open_history(out / "history.sqlite", read_only=True) as hist:
+        runs = hist.runs()
+    assert [r["passed"] for r in runs] == [1, 1, 0] and all(r["quick"] == 1 for r in runs)
+    assert runs[2]["report"] == str((out / "latest").resolve())
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda p: p.write_bytes(b"SQLite format 3\x00" + b"\x13" * 3000), "not an xcheck history"),
+    (lambda p: sqlite3.connect(p).execute("CREATE TABLE invoices (id INTEGER)").connection.commit(),
+     "not an xcheck history (no xcheck_meta table; it has invoices)"),
+    (lambda p: (H.open_history(p).close(), sqlite3.connect(p).execute(
+        "UPDATE xcheck_meta SET value = '2' WHERE key = 'schema_version'").connection.commit()),
+     "written by a newer xcheck (history schema 2"),
+])
+def test_a_bad_history_exits_2_before_any_work_and_is_left_untouched(tmp_path, make, words):
+    history = tmp_path / "h.sqlite"
+    make(history)
+    before = _files(tmp_path)
+    proc = _nightly(SCENARIO, "--out", tmp_path / "reports", "--history", history)
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert proc.stderr.startswith(f"xcheck: error: {history}: ") and words in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert _files(tmp_path) == before  # no report written either: the history is checked first
+
+
+def test_bad_arguments_exit_2_naming_them(tmp_path):
+    cases = [(["--keep", "0"], "--keep: expected a positive number"),
+             (["--baseline", "3"], "--baseline 3: the history"),
+             (["--mujoco", "4.x"], "--mujoco: '4.x' is not a release number"),
+             (["--speed-drop", "1.5"], "--speed-drop: expected a positive number at most 1, got 1.5"),
+             (["--error-factor", "-1"], "--error-factor: expected a positive number, got -1.0"),
+             (["--history", tmp_path / "missing" / "h.sqlite"], "does not exist")]
+    for extra, words in cases:
+        proc = _nightly(SCENARIO, "--out", tmp_path / "r", *extra)
+        assert proc.returncode == 2 and words in proc.stderr, (extra, proc.stderr)
+
+
+def test_two_nightlies_at_once_both_land(tmp_path):
+    out = tmp_path / "reports"
+    procs = [_nightly(SCENARIO, "--out", out, popen=True) for _ in range(2)]
+    for p in procs:
+        stdout, stderr = p.communicate(timeout=300)
+        assert p.returncode == 0, stdout + stderr
+    with H.open_history(out / "history.sqlite", read_only=True) as hist:
+        runs = hist.runs()
+        assert len(runs) == 2
+        assert len(hist.metrics(runs[0]["id"])) == len(hist.metrics(runs[1]["id"])) > 100
+    assert {r["report"] for r in runs} == {str(p.resolve()) for p in out.iterdir() if re.match(r"\d{8}T", p.name)}
+
+
+def test_baseline_run_id_compares_with_that_run(tmp_path):
+    out = tmp_path / "reports"
+    assert _nightly(SCENARIO, "--out", out).returncode == 0
+    proc = _nightly(SCENARIO, "--out", out, "--baseline", "1")
+    assert proc.returncode == 0, proc.stderr
+    results = json.loads((out / "latest" / "results.json").read_text())
+    assert results["history"][0]["baseline"] == "run 1" and results["history"][0]["baseline_runs"] == [1]
+    proc = _nightly(SCENARIO, "--out", out, "--baseline", "7")
+    assert proc.returncode == 2 and "--baseline 7: no such run" in proc.stderr and "runs 1-2" in proc.stderr
+
+
+def _fake_report(root: Path, name: str, results=True) -> Path:
+    p = root / name
+    p.mkdir()
+    if results:
+        (p / "results.json").write_text("{}")
+    return p
+
+
+def test_keep_deletes_only_older_report_folders(tmp_path):
+    """Truth: by construction. Kept: the newest N stamp-named report folders, the one ``latest`` points to
+    (here an old one), and everything that is not a report folder."""
+    root = tmp_path
+    old = [_fake_report(root, f"2026110{d}T020000Z") for d in range(1, 6)]
+    second = _fake_report(root, "20261105T020000Z-2")
+    not_reports = [_fake_report(root, "20261101T010000Z", results=False), _fake_report(root, "notes"),
+                   _fake_report(root, "mujoco-3.2.7")]
+    (root / "history.sqlite").write_bytes(b"x")
+    (root / "latest").symlink_to(old[0].name)
+    removed = nightly.keep_newest(root, 2)
+    assert sorted(p.name for p in removed) == sorted(p.name for p in old[1:4])
+    left = {p.name for p in root.iterdir()}
+    assert {second.name, old[4].name, old[0].name, "latest", "history.sqlite"} | {p.name for p in not_reports} == left
+
+
+def test_keep_on_the_command_line(tmp_path):
+    out = tmp_path / "reports"
+    for _ in range(3):
+        assert _nightly(SCENARIO, "--out", out, "--keep", "2").returncode == 0
+    reports = sorted(p.name for p in out.iterdir() if re.match(r"\d{8}T", p.name))
+    assert len(reports) == 2 and (out / "latest").resolve().name == reports[-1]
+    with H.open_history(out / "history.sqlite", read_only=True) as hist:
+        assert len(hist.runs()) == 3  # the history keeps every run
+
+
+def test_a_killed_nightly_records_nothing_and_leaves_the_history_readable(tmp_path):
+    out = tmp_path / "reports"
+    assert _nightly(SCENARIO, "--out", out).returncode == 0
+    before = (out / "history.sqlite").read_bytes()
+    p = _nightly(SCENARIO, "--out", out, popen=True)
+    import time
+    time.sleep(1.5)  # imports done, the studies running
+    p.send_signal(signal.SIGINT)
+    p.communicate(timeout=120)
+    assert p.returncode == 130
+    assert (out / "history.sqlite").read_bytes() == before
+    with H.open_history(out / "history.sqlite", read_only=True) as hist:
+        assert len(hist.runs()) == 1
+
+
+# -----------------------------------------------------------------------------------------------------
+# the MuJoCo version matrix
+# -----------------------------------------------------------------------------------------------------
+OLD_MUJOCO = "3.2.7"
+
+
+def _index_reachable() -> bool:
+    proc = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check",
+                           "-q", "-d", os.devnull if False else str(Path.home() / ".cache" / "xcheck-pip-probe"),
+                           f"mujoco=={OLD_MUJOCO}"], capture_output=True, text=True, timeout=300)
+    return proc.returncode == 0
+
+
+@pytest.fixture(scope="module")
+def package_index():
+    if not _index_reachable():
+        pytest.skip(f"the package index is not reachable (pip download mujoco=={OLD_MUJOCO} failed): the version "
+                    "matrix needs it to install MuJoCo releases")
+
+
+def test_the_version_matrix_runs_each_release_and_reports_the_uninstallable(tmp_path, package_index):
+    """Truth: MuJoCo's changelog and a measurement, the gyroscope's RK4 is order 2 in 3.2.7 (the gyroscopic term
+    of free bodies explicit) and order 4 in the installed release; 0.0.1 was never released."""
+    from xcheck.matrix import installed_mujoco
+
+    installed = installed_mujoco()
+    out = tmp_path / "reports"
+    proc = _nightly(SCENARIO, "--out", out, "--mujoco", f"{installed},{OLD_MUJOCO},0.0.1")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "MuJoCo 0.0.1: cannot be installed" in proc.stdout
+    assert f"MuJoCo {OLD_MUJOCO}: some checks failed" in proc.stdout
+    with H.open_history(out / "history.sqlite", read_only=True) as hist:
+        runs = {r["environment"]: r for r in hist.runs()}
+        assert set(runs) == {"", f"mujoco=={OLD_MUJOCO}"}
+        assert runs[f"mujoco=={OLD_MUJOCO}"]["mujoco"] == OLD_MUJOCO and runs[""]["mujoco"] == installed
+        orders = {env: hist.metrics(r["id"])[(SCENARIO, "mujoco-rk4", None, "observed_order")]
+                  for env, r in runs.items()}
+    assert orders[f"mujoco=={OLD_MUJOCO}"] == pytest.approx(2.0, abs=0.1)
+    assert orders[""] == pytest.approx(4.0, abs=0.1)
+    report = (out / "latest" / "report.md").read_text()
+    assert "## MuJoCo versions" in report and "**MuJoCo 0.0.1: **cannot be installed" in report
+    row = next(line for line in report.splitlines() if line.startswith("| mujoco-rk4 |") and "p=2.0" in line)
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[1].startswith("p=2.00") and cells[2].startswith("✅ p=4.00")  # better than its left neighbour
+    assert (out / f"mujoco-{OLD_MUJOCO}" / "latest" / "results.json").is_file()
+
+
+# -----------------------------------------------------------------------------------------------------
+# PostgreSQL
+# -----------------------------------------------------------------------------------------------------
+def _pg_bin(name):
+    found = shutil.which(name)
+    if found:
+        return found
+    for p in sorted(Path("/usr/lib/postgresql").glob(f"*/bin/{name}"), reverse=True):
+        return str(p)
+    return None
+
+
+@pytest.fixture(scope="module")
+def postgres():
+    """A PostgreSQL server of our own in a temporary folder (as user ``postgres`` when the tests run as root);
+    skipped, and said so, when PostgreSQL or the psycopg driver is not installed."""
+    pytest.importorskip("psycopg", reason="the postgres extra (psycopg) is not installed")
+    initdb, pg_ctl = _pg_bin("initdb"), _pg_bin("pg_ctl")
+    if not (initdb and pg_ctl):
+        pytest.skip("PostgreSQL's initdb and pg_ctl are not installed: the PostgreSQL history is not tested")
+    import tempfile
+
+    # not under pytest's temporary folder: its parents are private to the user running the tests
+    folder = Path(tempfile.mkdtemp(prefix="xcheck-pg-"))
+    data, sock = folder / "data", folder / "sock"
+    sock.mkdir()
+    as_user = []
+    if os.geteuid() == 0:  # PostgreSQL refuses to run as root
+        import pwd
+
+        try:
+            pw = pwd.getpwnam("postgres")
+        except KeyError:
+            pytest.skip("running as root without a postgres user: cannot start a PostgreSQL server")
+        shutil.chown(folder, pw.pw_uid, pw.pw_gid)
+        shutil.chown(sock, pw.pw_uid, pw.pw_gid)
+        as_user = ["runuser", "-u", "postgres", "--"]
+    port = 54000 + os.getpid() % 1000
+    for cmd in ([initdb, "-D", str(data), "-U", "xcheck", "--auth=trust", "-E", "UTF8"],
+                [pg_ctl, "-D", str(data), "-w", "-l", str(folder / "log"), "-o",
+                 f"-k {sock} -p {port} -c listen_addresses=''", "start"]):
+        proc = subprocess.run([*as_user, *cmd], capture_output=True, text=True)
+        if proc.returncode != 0:
+            shutil.rmtree(folder, ignore_errors=True)
+            pytest.fail(f"{' '.join(cmd[:1])} failed: {proc.stderr or proc.stdout}")
+    try:
+        yield f"postgresql://xcheck@/postgres?host={sock}&port={port}"
+    finally:
+        subprocess.run([*as_user, pg_ctl, "-D", str(data), "-m", "immediate", "stop"], capture_output=True)
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def test_a_postgresql_history(tmp_path, postgres):
+    """Two nightlies into a PostgreSQL history: both recorded with the same figures as a SQLite history gets."""
+    out = tmp_path / "reports"
+    for n in (1, 2):
+        proc = _nightly(SCENARIO, "--out", out, "--history", postgres)
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+        assert f"nightly: run {n} recorded in postgresql://xcheck@/postgres" in proc.stdout
+    doc = json.loads((out / "latest" / "results.json").read_text())
+    assert doc["history"][0]["previous_run"] == 1
+    with H.open_history(postgres) as pg, H.open_history(tmp_path / "h.sqlite") as lite:
+        lite_run = lite.record(doc, started="s", finished="f")
+        stored = pg.metrics(pg.runs()[-1]["id"])
+        assert stored == lite.metrics(lite_run)  # doubles stored as doubles
+        assert [r["id"] for r in pg.runs()] == [1, 2]
+
+
+def test_a_foreign_postgresql_database_is_refused_untouched(postgres):
+    import psycopg
+
+    url = postgres.replace("/postgres?", "/other?")
+    with psycopg.connect(postgres, autocommit=True) as con:
+        con.execute("DROP DATABASE IF EXISTS other")
+        con.execute("CREATE DATABASE other")
+    with psycopg.connect(url, autocommit=True) as con:
+        con.execute("CREATE TABLE runs (id INTEGER)")
+    with pytest.raises(H.HistoryError, match="not an xcheck history"):
+        H.open_history(url)
+    with psycopg.connect(url, autocommit=True) as con:
+        tables = {r[0] for r in con.execute("SELECT table_name FROM information_schema.tables "
+                                            "WHERE table_schema = 'public'")}
+    assert tables == {"runs"}

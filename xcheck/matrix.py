@@ -1,0 +1,160 @@
+"""The MuJoCo version matrix of ``xcheck nightly --mujoco 3.2.7,3.6.0,4.0.0`` (issue 11).
+
+Each release other than the installed one runs in its own virtual environment, made once with the ordinary
+tools (``python -m venv``, then ``pip install mujoco==X``) and cached under the user cache
+(``$XCHECK_CACHE_DIR``, else ``~/.cache/xcheck``: ``mujoco-envs/py3.11-mujoco-3.6.0``). The environment
+holds MuJoCo and what it alone needs; everything else (xcheck itself, numpy, scipy, numba, matplotlib) comes
+from the environment xcheck runs in, through a ``.pth`` file, and pip is held to those versions by a
+constraints file: only MuJoCo differs between the columns of the version table, and the numba cache is shared.
+In each environment ``python -m xcheck report`` writes the report into ``<out>/mujoco-<X>/``.
+
+A release that cannot be installed (not on the package index, no wheel for this Python or platform, a
+dependency that conflicts with the pinned versions) is reported as such, with pip's reason; the others run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import sysconfig
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+
+#: What an environment takes from the running one, pinned (MuJoCo may not pull other versions in).
+PINNED = ("numpy", "scipy", "numba", "llvmlite", "matplotlib")
+_RELEASE = re.compile(r"^\d+\.\d+\.\d+$")
+
+
+class MatrixError(ValueError):
+    """A version that cannot be installed or run; the message says why."""
+
+
+def parse_versions(text: str) -> list[str]:
+    """``"3.2.7, 4.0.0"`` -> ``["3.2.7", "4.0.0"]``; ValueError naming ``--mujoco`` for anything else."""
+    items = [v.strip() for v in text.split(",") if v.strip()]
+    if not items:
+        raise ValueError(f"--mujoco: expected a comma-separated list of MuJoCo releases, got {text!r}")
+    for v in items:
+        if not _RELEASE.match(v):
+            raise ValueError(f"--mujoco: {v!r} is not a release number like 3.2.7")
+    if len(set(items)) < len(items):
+        raise ValueError(f"--mujoco: a release is given more than once ({text})")
+    return sorted(items, key=lambda v: tuple(map(int, v.split("."))))
+
+
+def installed_mujoco() -> str | None:
+    try:
+        return metadata.version("mujoco")
+    except metadata.PackageNotFoundError:
+        return None
+
+
+def env_dir(version: str) -> Path:
+    from ._jit import user_cache_home
+
+    return user_cache_home() / "mujoco-envs" / f"py{sys.version_info[0]}.{sys.version_info[1]}-mujoco-{version}"
+
+
+def _python(env: Path) -> Path:
+    return env / ("Scripts/python.exe" if os.name == "nt" else "bin/python")
+
+
+def ensure_env(version: str, log=print) -> Path:
+    """The Python of the cached environment for MuJoCo ``version``, made when missing (in a temporary folder,
+    renamed into place when complete: two nightlies making the same environment do not meet half-made ones).
+    :class:`MatrixError` with pip's reason when it cannot be made."""
+    env = env_dir(version)
+    if (env / ".ready").is_file():
+        return _python(env)
+    env.parent.mkdir(parents=True, exist_ok=True)
+    tmp = env.parent / f".{env.name}.{os.getpid()}"
+    shutil.rmtree(tmp, ignore_errors=True)
+    log(f"MuJoCo {version}: making its environment in {env} (once)")
+    try:
+        subprocess.run([sys.executable, "-m", "venv", str(tmp)], check=True, capture_output=True, text=True)
+        py = _python(tmp)
+        site = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                              check=True, capture_output=True, text=True).stdout.strip()
+        parent = sysconfig.get_paths()["purelib"]
+        # the running environment after the new one's own packages (its .pth files too: an editable xcheck)
+        Path(site, "xcheck_parent_environment.pth").write_text(f"import site; site.addsitedir({parent!r})\n")
+        pins = [f"{p}=={metadata.version(p)}" for p in PINNED if _has(p)]
+        (tmp / "constraints.txt").write_text("\n".join(pins) + "\n")
+        pip = subprocess.run([str(py), "-m", "pip", "install", "--disable-pip-version-check", "--no-input", "-q",
+                              "-c", str(tmp / "constraints.txt"), f"mujoco=={version}"],
+                             capture_output=True, text=True)
+        if pip.returncode != 0:
+            raise MatrixError(f"cannot be installed: {_reason(pip.stderr)}")
+        check = subprocess.run([str(py), "-c", "import mujoco, xcheck; print(mujoco.__version__)"],
+                               capture_output=True, text=True)
+        if check.returncode != 0 or check.stdout.strip() != version:
+            raise MatrixError(f"installed but does not import: {_reason(check.stderr) or check.stdout.strip()}")
+        (tmp / ".ready").write_text(version + "\n")
+        try:
+            os.rename(tmp, env)
+        except OSError:  # another nightly finished it first
+            if not (env / ".ready").is_file():
+                raise
+        return _python(env)
+    except subprocess.CalledProcessError as exc:
+        raise MatrixError(f"cannot make a virtual environment: {_reason(exc.stderr)}") from None
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _has(package: str) -> bool:
+    try:
+        metadata.version(package)
+        return True
+    except metadata.PackageNotFoundError:
+        return False
+
+
+def _reason(stderr: str) -> str:
+    lines = [ln.strip() for ln in (stderr or "").splitlines() if ln.strip() and not ln.startswith("WARNING")]
+    errors = [ln for ln in lines if "error" in ln.lower()]
+    return (errors or lines or ["(no message)"])[-1][:300]
+
+
+@dataclass
+class VersionRun:
+    version: str
+    results: dict | None  # the report's results.json document, None when it did not run
+    note: str  # what happened, for the version table
+    folder: Path | None = None  # the report folder
+
+
+def run_version(version: str, scenarios: list[str], out_root: Path, *, quick: bool, workers: int | None,
+                log=print) -> VersionRun:
+    """The report of ``scenarios`` against MuJoCo ``version`` in its environment, into
+    ``out_root/mujoco-<version>/``."""
+    try:
+        py = ensure_env(version, log)
+    except MatrixError as exc:
+        return VersionRun(version, None, str(exc))
+    root = Path(out_root) / f"mujoco-{version}"
+    cmd = [str(py), "-m", "xcheck", "report", *scenarios, "--out", str(root)]
+    cmd += ["--quick"] if quick else []
+    cmd += ["--workers", str(workers)] if workers else []
+    log(f"MuJoCo {version}: xcheck report in its environment")
+    before = latest_report(root)
+    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    folder = latest_report(root)
+    if proc.returncode not in (0, 1) or folder is None or folder == before:
+        return VersionRun(version, None, f"the report did not complete (exit {proc.returncode}: "
+                                         f"{_reason(proc.stderr)})")
+    results = json.loads((folder / "results.json").read_text())
+    return VersionRun(version, results, "passed" if results["passed"] else "some checks failed", folder)
+
+
+def latest_report(root: Path) -> Path | None:
+    """The report folder ``root/latest`` points to (or ``latest.txt`` names), if it holds a results.json."""
+    root = Path(root)
+    link, text = root / "latest", root / "latest.txt"
+    folder = link.resolve() if link.exists() else (root / text.read_text().strip() if text.is_file() else None)
+    return folder if folder is not None and (folder / "results.json").is_file() else None

@@ -1,0 +1,163 @@
+"""``xcheck nightly``: the full report, compared with the history's previous run and rolling baseline, then
+recorded in it (issue 11). The storage and the comparison rules are :mod:`xcheck.history`'s; the History
+section's figures and tables :mod:`xcheck.report.trends`'; the MuJoCo version matrix :mod:`xcheck.matrix`'s.
+
+A run's **series** is what it is compared with: runs of the same kind (quick or full) in the same environment
+(the one xcheck runs in, or one MuJoCo version of the matrix). A new MuJoCo release installed between two
+nights stays in the series: catching what it changed is the point.
+"""
+
+from __future__ import annotations
+
+import shutil
+import socket
+import subprocess
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from . import history as H
+
+#: Stored runs drawn in the History section's trend plots (the newest; the history keeps every run).
+TREND_RUNS = 60
+
+
+def default_history(out) -> Path:
+    return Path(out) / "history.sqlite"
+
+
+def host_name() -> str:
+    return socket.gethostname() or "unknown"
+
+
+def git_commit() -> str | None:
+    """The project's commit when xcheck runs from a git checkout (``+dirty`` with uncommitted changes to
+    tracked files), else None."""
+    root = Path(__file__).resolve().parent.parent
+    if not (root / ".git").exists():
+        return None
+    try:
+        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True,
+                              timeout=10)
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    if head.returncode != 0:
+        return None
+    return head.stdout.strip() + ("+dirty" if dirty.returncode == 0 and dirty.stdout.strip() else "")
+
+
+def check_history(location, baseline: int | None = None) -> None:
+    """Before any work: the history can be used (an existing one is read, nothing written) and ``--baseline``
+    names one of its runs. :class:`~xcheck.history.HistoryError` otherwise."""
+    if not H.is_url(location) and not Path(location).exists():
+        if not Path(location).parent.is_dir():
+            raise H.HistoryError(f"{location}: its folder {Path(location).parent} does not exist")
+        if baseline is not None:
+            raise H.HistoryError(f"--baseline {baseline}: the history {location} does not exist yet")
+        return
+    with H.open_history(location, read_only=True) as hist:
+        if baseline is not None and baseline not in {r["id"] for r in hist.runs()}:
+            ids = [r["id"] for r in hist.runs()]
+            raise H.HistoryError(f"--baseline {baseline}: no such run in {hist.where} (runs "
+                                 f"{_id_ranges(ids) or 'none yet'})")
+
+
+def _id_ranges(ids) -> str:
+    return f"{min(ids)}-{max(ids)}" if ids else ""
+
+
+# -----------------------------------------------------------------------------------------------------
+@dataclass
+class Comparison:
+    """One run (not yet recorded) against its series in the history."""
+
+    environment: str
+    series: list[dict]  # the stored runs of its series, oldest first
+    current: dict  # {(scenario, method, dt, metric): value} of the run
+    current_row: dict  # its runs-table row
+    previous: dict | None = None  # the last stored run of the series
+    baseline_runs: list[dict] = field(default_factory=list)
+    baseline_label: str = ""
+    since_previous: list[H.Change] = field(default_factory=list)
+    since_baseline: list[H.Change] = field(default_factory=list)
+    trend_metrics: list[dict] = field(default_factory=list)  # metrics of the series' newest TREND_RUNS runs
+    thresholds: H.Thresholds = field(default_factory=H.Thresholds)
+
+    @property
+    def regressions(self) -> list[H.Change]:
+        seen, out = set(), []
+        for c in self.since_previous + self.since_baseline:
+            key = (c.kind, c.scenario, c.method, c.dt)
+            if c.regression and key not in seen:
+                seen.add(key)
+                out.append(c)
+        return out
+
+    def to_json(self) -> dict:
+        def rows(changes):
+            return [{"kind": c.kind, "scenario": c.scenario, "method": c.method, "dt": c.dt, "before": c.before,
+                     "after": c.after, "regression": c.regression, "line": c.line()} for c in changes]
+
+        return {"environment": self.environment, "previous_run": self.previous["id"] if self.previous else None,
+                "baseline": self.baseline_label, "baseline_runs": [r["id"] for r in self.baseline_runs],
+                "since_previous": rows(self.since_previous), "since_baseline": rows(self.since_baseline)}
+
+
+def compare_run(location, results: dict, *, throughput=None, environment: str = "", host: str,
+                baseline: int | None = None, last: int = 7, thresholds: H.Thresholds = H.Thresholds()) -> Comparison:
+    """Compare a report's ``results.json`` document (and its ``xcheck bench`` rows) with its series in the
+    history at ``location`` (which may not exist yet: then there is nothing to compare with)."""
+    current = H.as_dict([*H.report_metrics(results), *H.bench_metrics(throughput)])
+    row = H.run_row(results, started="", finished="", host=host, environment=environment)
+    cmp = Comparison(environment=environment, series=[], current=current, current_row=row, thresholds=thresholds)
+    if not H.is_url(location) and not Path(location).exists():
+        return cmp
+    with H.open_history(location, read_only=True) as hist:
+        cmp.series = hist.runs(quick=bool(row["quick"]), environment=environment)
+        if cmp.series:
+            cmp.previous = cmp.series[-1]
+            before = H.baseline_metrics(hist, [cmp.previous], host=host)
+            cmp.since_previous = H.compare(before, current, thresholds)
+        if baseline is not None:
+            cmp.baseline_runs = [r for r in hist.runs() if r["id"] == baseline]
+            cmp.baseline_label = f"run {baseline}"
+        else:
+            cmp.baseline_runs = cmp.series[-last:]
+            ids = _id_ranges([r["id"] for r in cmp.baseline_runs])
+            cmp.baseline_label = (f"the median of the last {len(cmp.baseline_runs)} runs, {ids}" if cmp.baseline_runs
+                                  else "")
+        if cmp.baseline_runs:
+            cmp.since_baseline = H.compare(H.baseline_metrics(hist, cmp.baseline_runs, host=host), current,
+                                           thresholds)
+        cmp.trend_metrics = [hist.metrics(r["id"]) for r in cmp.series[-TREND_RUNS:]]
+    return cmp
+
+
+# -----------------------------------------------------------------------------------------------------
+def keep_newest(out_root, keep: int, *, protect=()) -> list[Path]:
+    """Delete all but the newest ``keep`` report folders in ``out_root``; returns what was deleted.
+
+    A report folder is a direct subfolder named like a report stamp (``20261123T020000Z``, or ``-2`` ... for a
+    second one in the same second) holding a ``results.json``; nothing else is touched. Never deleted: the
+    folder ``latest`` points to, and those in ``protect`` (this run's)."""
+    import re
+
+    out_root = Path(out_root)
+    stamp = re.compile(r"^\d{8}T\d{6}Z(-\d+)?$")
+    keep_too = {Path(p).resolve() for p in protect}
+    latest = out_root / "latest"
+    if latest.is_symlink() or latest.is_dir():
+        keep_too.add(latest.resolve())
+    elif (out_root / "latest.txt").is_file():
+        keep_too.add((out_root / (out_root / "latest.txt").read_text().strip()).resolve())
+    reports = [p for p in out_root.iterdir() if stamp.match(p.name) and p.is_dir() and not p.is_symlink()
+               and (p / "results.json").is_file()]
+    reports.sort(key=lambda p: (p.name[:16], int(p.name[17:] or 1)), reverse=True)
+    removed = []
+    for p in reports[keep:]:
+        if p.resolve() in keep_too:
+            continue
+        shutil.rmtree(p)
+        removed.append(p)
+    return removed
