@@ -393,14 +393,14 @@ def _cmd_nightly(args) -> int:
         bench += run_bench(quick=args.quick, repeat=1)
     studies, folder = _write_report(args, sections=sections, bench=bench)
     finished = now()
-    # the report is complete: record it (and the matrix's runs) in one transaction each
+    # the report is complete: record it and the matrix's runs, in one transaction
+    runs = [dict(results=vr.results, started=v_started, finished=v_finished, git_commit=commit, host=host,
+                 report=str(vr.folder), environment=f"mujoco=={vr.version}")
+            for vr, v_started, v_finished in matrix if vr.results is not None]
+    runs.append(dict(results=json.loads((folder / "results.json").read_text()), started=started, finished=finished,
+                     git_commit=commit, host=host, report=str(folder.resolve()), throughput=bench))
     with open_history(location) as hist:
-        run_id = hist.record(json.loads((folder / "results.json").read_text()), started=started, finished=finished,
-                             git_commit=commit, host=host, report=str(folder.resolve()), throughput=bench)
-        for vr, v_started, v_finished in matrix:
-            if vr.results is not None:
-                hist.record(vr.results, started=v_started, finished=v_finished, git_commit=commit, host=host,
-                            report=str(vr.folder), environment=f"mujoco=={vr.version}")
+        run_id = hist.record_runs(runs)[-1]
     for st in studies:
         _print_study(st)
     passed = all(st.passed for st in studies)

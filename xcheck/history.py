@@ -242,16 +242,25 @@ class History:
     def record(self, results: dict, *, started: str, finished: str, git_commit: str | None = None,
                host: str | None = None, report: str | None = None, throughput=None, environment: str = "") -> int:
         """Store a report's ``results.json`` document (and ``xcheck bench`` rows) as one run; returns its id."""
-        row = run_row(results, started=started, finished=finished, git_commit=git_commit, host=host, report=report,
-                      environment=environment)
-        metrics = list(report_metrics(results)) + list(bench_metrics(throughput))
+        return self.record_runs([dict(results=results, started=started, finished=finished, git_commit=git_commit,
+                                      host=host, report=report, throughput=throughput, environment=environment)])[0]
+
+    def record_runs(self, runs: list[dict]) -> list[int]:
+        """Several runs (each the keyword arguments of :meth:`record`) in one transaction: all or none."""
+        ids = []
         with self.transaction():
-            run_id = self._execute(f"INSERT INTO runs ({', '.join(RUN_COLUMNS)}) VALUES "
-                                   f"({', '.join('?' * len(RUN_COLUMNS))}) RETURNING id",
-                                   [row[c] for c in RUN_COLUMNS]).fetchone()[0]
-            self.db.executemany(self.con, self.db.sql("INSERT INTO metrics VALUES (?, ?, ?, ?, ?, ?)"),
-                                [(run_id, *m[:4], _finite(m[4])) for m in metrics])
-        return run_id
+            for run in runs:
+                run = dict(run)
+                results, throughput = run.pop("results"), run.pop("throughput", None)
+                row = run_row(results, **run)
+                run_id = self._execute(f"INSERT INTO runs ({', '.join(RUN_COLUMNS)}) VALUES "
+                                       f"({', '.join('?' * len(RUN_COLUMNS))}) RETURNING id",
+                                       [row[c] for c in RUN_COLUMNS]).fetchone()[0]
+                metrics = [*report_metrics(results), *bench_metrics(throughput)]
+                self.db.executemany(self.con, self.db.sql("INSERT INTO metrics VALUES (?, ?, ?, ?, ?, ?)"),
+                                    [(run_id, *m[:4], _finite(m[4])) for m in metrics])
+                ids.append(run_id)
+        return ids
 
     def runs(self, *, quick: bool | None = None, environment: str | None = None) -> list[dict]:
         """Every run, oldest first (only quick or full ones, only one environment, when asked)."""
