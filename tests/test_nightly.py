@@ -316,3 +316,18 @@ def test_a_foreign_postgresql_database_is_refused_untouched(postgres):
         tables = {r[0] for r in con.execute("SELECT table_name FROM information_schema.tables "
                                             "WHERE table_schema = 'public'")}
     assert tables == {"runs"}
+
+
+def test_bench_rows_are_recorded(tmp_path):
+    """``--bench``: every benchmark row is stored as ``bench_steps_per_second``, equal to the report's own row."""
+    out = tmp_path / "reports"
+    proc = _nightly(SCENARIO, "--out", out, "--bench")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    rows = json.loads((out / "latest" / "results.json").read_text())["throughput"]
+    reported = {(r["scenario"], r["method"] + (f" x{r['batch']}" if r["batch"] > 1 else "")): r["steps_per_second"]
+                for r in rows}
+    with H.open_history(out / "history.sqlite", read_only=True) as hist:
+        stored = {k[:2]: v for k, v in hist.metrics(1).items() if k[3] == "bench_steps_per_second"}
+    assert len(stored) >= 10 and any(" x" in m for _, m in stored)  # single and batch rows
+    for key, value in stored.items():
+        assert reported[key] == value

@@ -390,7 +390,7 @@ def _cmd_nightly(args) -> int:
     if args.bench:  # measured before the report so that its History section can compare the rows
         from .bench import run_bench
 
-        bench += run_bench(quick=args.quick, repeat=1)
+        bench += run_bench(quick=args.quick, repeat=3)
     studies, folder = _write_report(args, sections=sections, bench=bench)
     finished = now()
     # the report is complete: record it and the matrix's runs, in one transaction
