@@ -318,7 +318,7 @@ def _cmd_nightly(args) -> int:
     from datetime import datetime, timezone
 
     from . import nightly
-    from .history import open_history
+    from .history import HistoryError, open_history
     from .report.io import check_output_dir
 
     def now():
@@ -352,17 +352,11 @@ def _cmd_nightly(args) -> int:
     # the other MuJoCo releases first, each in its environment: the main report shows the version table
     matrix, installed = [], None
     if versions:
-        from .matrix import installed_mujoco, run_version
+        from .matrix import installed_mujoco, run_matrix
 
         installed = installed_mujoco()
-        for v in versions:
-            if v == installed:
-                continue
-            started = now()
-            vr = run_version(v, [str(sc.path) for sc in args.resolved], Path(args.out), quick=args.quick,
-                             workers=args.workers)
-            print(f"MuJoCo {v}: {vr.note}" + (f" ({vr.folder}/index.html)" if vr.folder else ""))
-            matrix.append((vr, started, now()))
+        matrix = run_matrix(versions, [str(sc.path) for sc in args.resolved], Path(args.out), quick=args.quick,
+                            workers=args.workers)
     bench, comparisons = [], []
 
     def sections(results):
@@ -375,7 +369,7 @@ def _cmd_nightly(args) -> int:
             if vr.results is not None:
                 comparisons.append(nightly.compare_run(location, vr.results, host=host, last=args.last,
                                                        environment=f"mujoco=={vr.version}", thresholds=thresholds))
-        summary, blocks, figures = history_section(main)
+        summary, blocks, figures = history_section(main, others=comparisons[1:])
         results["history"] = [c.to_json() for c in comparisons]
         if versions:
             columns = [(vr.version, vr.results, vr.note, vr.folder and os.path.relpath(vr.folder, args.out))
@@ -399,19 +393,19 @@ def _cmd_nightly(args) -> int:
             for vr, v_started, v_finished in matrix if vr.results is not None]
     runs.append(dict(results=json.loads((folder / "results.json").read_text()), started=started, finished=finished,
                      git_commit=commit, host=host, report=str(folder.resolve()), throughput=bench))
-    with open_history(location) as hist:
-        run_id = hist.record_runs(runs)[-1]
+    try:
+        with open_history(location) as hist:
+            run_id = hist.record_runs(runs)[-1]
+    except HistoryError as exc:
+        raise HistoryError(f"{exc}; the report {folder} is complete") from None
     for st in studies:
         _print_study(st)
     passed = all(st.passed for st in studies)
     regressions = [c for cmp in comparisons for c in cmp.regressions]
     print()
     for cmp in comparisons:
-        where = f" [{cmp.environment}]" if cmp.environment else ""
-        if cmp.previous is None:
-            print(f"history{where}: the first run of its series")
-        for c in cmp.regressions + [c for c in cmp.since_baseline if not c.regression]:
-            print(c.line() + where)
+        for line in cmp.lines():
+            print(line)
     if args.keep is not None:
         roots = [Path(args.out)] + [Path(args.out) / f"mujoco-{vr.version}" for vr, _, _ in matrix]
         removed = [p for root in roots if root.is_dir() for p in nightly.keep_newest(root, args.keep, protect=[folder])]

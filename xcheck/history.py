@@ -248,6 +248,13 @@ class History:
     def record_runs(self, runs: list[dict]) -> list[int]:
         """Several runs (each the keyword arguments of :meth:`record`) in one transaction: all or none."""
         ids = []
+        try:
+            self._insert_runs(runs, ids)
+        except self.db.errors as exc:  # locked beyond the busy timeout, disk full, a server gone
+            raise HistoryError(f"{self.where}: could not record the run ({exc}); nothing was recorded") from None
+        return ids
+
+    def _insert_runs(self, runs, ids) -> None:
         with self.transaction():
             for run in runs:
                 run = dict(run)
@@ -260,7 +267,6 @@ class History:
                 self.db.executemany(self.con, self.db.sql("INSERT INTO metrics VALUES (?, ?, ?, ?, ?, ?)"),
                                     [(run_id, *m[:4], _finite(m[4])) for m in metrics])
                 ids.append(run_id)
-        return ids
 
     def runs(self, *, quick: bool | None = None, environment: str | None = None) -> list[dict]:
         """Every run, oldest first (only quick or full ones, only one environment, when asked)."""

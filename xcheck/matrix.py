@@ -158,3 +158,23 @@ def latest_report(root: Path) -> Path | None:
     link, text = root / "latest", root / "latest.txt"
     folder = link.resolve() if link.exists() else (root / text.read_text().strip() if text.is_file() else None)
     return folder if folder is not None and (folder / "results.json").is_file() else None
+
+
+def run_matrix(versions: list[str], scenarios: list[str], out_root: Path, *, quick: bool, workers: int | None,
+               log=print) -> list[tuple[VersionRun, str, str]]:
+    """:func:`run_version` for every release in ``versions`` but the installed one (the running environment's
+    own report covers it): ``[(run, started, finished)]`` with UTC ISO times."""
+    from datetime import datetime, timezone
+
+    def now():
+        return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+    runs = []
+    for v in versions:
+        if v == installed_mujoco():
+            continue
+        started = now()
+        vr = run_version(v, scenarios, out_root, quick=quick, workers=workers, log=log)
+        log(f"MuJoCo {v}: {vr.note}" + (f" ({vr.folder}/index.html)" if vr.folder else ""))
+        runs.append((vr, started, now()))
+    return runs

@@ -94,6 +94,14 @@ class Comparison:
                 out.append(c)
         return out
 
+    def lines(self) -> list[str]:
+        """What the terminal says: the regressions (against the previous run or the baseline), then the
+        improvements since the baseline, each tagged with the environment when it is not the running one."""
+        where = f" [{self.environment}]" if self.environment else ""
+        if self.previous is None:
+            return [f"history{where}: the first run of its series"]
+        return [c.line() + where for c in self.regressions + [c for c in self.since_baseline if not c.regression]]
+
     def to_json(self) -> dict:
         def rows(changes):
             return [{"kind": c.kind, "scenario": c.scenario, "method": c.method, "dt": c.dt, "before": c.before,

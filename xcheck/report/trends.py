@@ -11,10 +11,12 @@ from .document import Cell, Figure, Heading, Para, Table, step_label
 __all__ = ["history_section", "version_table_blocks"]
 
 
-def history_section(cmp, *, trend_figures: bool = True):
+def history_section(cmp, *, others=(), trend_figures: bool = True):
     """``(summary, blocks, figures)`` of a :class:`~xcheck.nightly.Comparison`: a sentence for the report's
-    first screen, the section's blocks, and its figures as ``[(file, caption, png)]``."""
-    regressions, improved = cmp.regressions, [c for c in cmp.since_baseline if not c.regression]
+    first screen, the section's blocks, and its figures as ``[(file, caption, png)]``. ``others``: the
+    comparisons of the version matrix's runs with their own series (their changes are listed too)."""
+    regressions = cmp.regressions + [c for other in others for c in other.regressions]
+    improved = [c for c in cmp.since_baseline if not c.regression]
     if cmp.previous is None:
         summary = ("History: the first run of its series in this history; from the next run on, the report says "
                    "what changed.")
@@ -51,6 +53,12 @@ def history_section(cmp, *, trend_figures: bool = True):
             continue
         blocks.append(Heading(3, title))
         blocks.append(change_table(changes) if changes else Para(empty, small=True))
+    for other in others:
+        changes = other.regressions + [c for c in other.since_baseline if not c.regression]
+        blocks.append(Heading(3, f"{other.environment}: against its own series"))
+        blocks.append(change_table(changes) if changes else Para(
+            "The first run of its series." if other.previous is None else "Nothing moved beyond the thresholds.",
+            small=True))
     th = cmp.thresholds
     speed = (f"steps per second down by more than {th.speed_drop:.0%} (only against runs on the same host; at each "
              f"method's finest step when that run lasted {MIN_TIMED:g} s or more, and the benchmark's rows)"
