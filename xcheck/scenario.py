@@ -126,6 +126,14 @@ class _Reader:
             if not math.isfinite(value):
                 self.fail(key, f"expected a finite number, got {value!r}")
             return float(value)
+        if kind == "integer":
+            if isinstance(value, bool) or not isinstance(value, int):
+                self.fail(key, f"expected a whole number, got {type(value).__name__} {value!r}")
+            return value
+        if kind == "list":
+            if not isinstance(value, list):
+                self.fail(key, f"expected a list, got {type(value).__name__} {value!r}")
+            return value
         if kind == "string":
             if not isinstance(value, str):
                 self.fail(key, f"expected a string, got {type(value).__name__} {value!r}")

@@ -1,0 +1,364 @@
+"""Sweep specs (issue 12, first step): a base scenario, the axes to vary, and the cells they make.
+
+A spec is a TOML file::
+
+    base = "rax1-orbit-field"        # a bundled scenario, or a scenario file (relative to the spec)
+    combine = "product"              # "product": every combination of the axes' values; "sample": `samples`
+    samples = 200                    #   draws, each axis from its distribution
+    seed = 7                         # every random draw comes from it (and the axis' name)
+    methods = ["formulation-2", "lie-rkmk4"]   # optional: the cells' methods (default: the base's)
+
+    [axes.dipole_scale]              # an axis: explicit values ...
+    values = [0.5, 1.0, 2.0]
+    [axes.inertia_scale]             # ... or a range (num points, linear or log spacing) ...
+    range = [0.5, 2.0]
+    num = 4
+    spacing = "log"
+    [axes.attitude]                  # ... or random draws (count of them in a product; one per sample)
+    random = "so3"
+    count = 10
+    [axes.dt]                        # the steps every cell runs (not a product dimension: each cell runs all)
+    values = [0.0625, 0.03125, 0.015625]
+
+With ``combine = "sample"`` a numeric axis draws from ``distribution = "uniform" | "log-uniform"`` over its
+``range``, or ``"normal"`` with ``mean`` and ``std``; an axis with ``values`` draws one of them.
+
+Axes (:data:`AXES`): ``model`` (MJCF files: swap the body), ``inertia_scale``, ``inertia`` (principal moments
+[kg m²]), ``dipole`` [A m²], ``dipole_scale``, ``attitude`` (quaternions ``[w, x, y, z]``, or ``random =
+"so3"``: uniform on SO(3)), ``rate`` [rad/s] or ``rate_deg`` [deg/s] (vectors), ``rate_scale`` (the base
+rate times a factor: stiffen the spin), ``rate_direction`` (``random = "sphere"``: the base rate's magnitude
+along a uniformly random direction), ``field`` (a field model name), ``field.<key>`` (that field model's
+parameter, e.g. ``field.altitude_km``), and ``dt``. An axis the base scenario has nothing to vary for (a
+dipole of a torque-free scenario, a field key its field model does not have) is refused.
+
+Everything is checked when the spec is read, before any cell runs: an unknown axis or key, an empty range,
+a value of the wrong kind is a :class:`SweepError` naming the file and the key.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import zlib
+from dataclasses import dataclass, field
+from itertools import product
+from pathlib import Path
+
+import numpy as np
+
+from .scenario import Scenario, ScenarioError, _Reader, resolve_scenario
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
+
+__all__ = ["SweepError", "SweepSpec", "Axis", "load_sweep", "AXES", "random_quaternions", "random_directions"]
+
+
+class SweepError(ScenarioError):
+    """A sweep spec that cannot be used; the message names the file and the key."""
+
+
+#: axis name -> (kind of one value, what it varies). Kinds: number, positive, vector3, positive3, quaternion,
+#: path, string, strings.
+AXES = {
+    "model": ("path", "the MJCF model (swap the body)"),
+    "inertia_scale": ("positive", "the body's inertia times a factor"),
+    "inertia": ("positive3", "the body's principal moments of inertia [kg m^2]"),
+    "dipole": ("vector3", "the magnetic dipole [A m^2]"),
+    "dipole_scale": ("positive", "the dipole times a factor"),
+    "attitude": ("quaternion", "the initial attitude [w, x, y, z], body -> world"),
+    "rate": ("vector3", "the initial body rate [rad/s]"),
+    "rate_deg": ("vector3", "the initial body rate [deg/s]"),
+    "rate_scale": ("positive", "the initial body rate times a factor"),
+    "rate_direction": ("vector3", "the initial body rate's direction (its magnitude kept)"),
+    "field": ("string", "the field model"),
+    "dt": ("positive", "the steps every cell runs [s]"),
+}
+RANDOM = {"attitude": "so3", "rate_direction": "sphere"}
+_AXIS_KEYS = ("values", "range", "num", "spacing", "distribution", "mean", "std", "random", "count")
+_TOP_KEYS = ("base", "description", "combine", "samples", "seed", "methods", "axes")
+MAGNETIC_AXES = ("dipole", "dipole_scale", "field")
+
+
+@dataclass
+class Axis:
+    name: str
+    kind: str
+    values: list | None = None  # explicit (or a range, spaced)
+    low: float | None = None
+    high: float | None = None
+    num: int | None = None
+    spacing: str = "linear"
+    distribution: str | None = None  # sample mode
+    mean: float | None = None
+    std: float | None = None
+    random: str | None = None  # "so3" | "sphere"
+    count: int | None = None
+
+    def grid(self, seed: int) -> list:
+        """The axis' values in a Cartesian product."""
+        if self.random:
+            return list(_random_axis(self.random, self.count, _rng(seed, self.name)))
+        if self.values is not None:
+            return list(self.values)
+        if self.spacing == "log":
+            return np.geomspace(self.low, self.high, self.num).tolist()
+        return np.linspace(self.low, self.high, self.num).tolist()
+
+    def draw(self, n: int, seed: int) -> list:
+        """``n`` draws (sample mode), reproducible from ``seed`` and the axis' name."""
+        rng = _rng(seed, self.name)
+        if self.random:
+            return list(_random_axis(self.random, n, rng))
+        if self.values is not None:
+            return [self.values[i] for i in rng.integers(0, len(self.values), n)]
+        if self.distribution == "normal":
+            out = rng.normal(self.mean, self.std, n)
+        elif self.distribution == "log-uniform":
+            out = np.exp(rng.uniform(np.log(self.low), np.log(self.high), n))
+        else:
+            out = rng.uniform(self.low, self.high, n)
+        return out.tolist()
+
+
+def _rng(seed: int, name: str) -> np.random.Generator:
+    """The generator of one axis: from the spec's seed and the axis' name, so that adding or reordering axes
+    leaves the others' draws as they were."""
+    return np.random.default_rng([seed, zlib.crc32(name.encode())])
+
+
+def random_quaternions(n: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` attitudes uniform on SO(3): normalised 4-D Gaussians (uniform on S³, hence Haar on SO(3)), w ≥ 0."""
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    return np.where(q[:, :1] < 0, -q, q)
+
+
+def random_directions(n: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` unit vectors uniform on the sphere."""
+    v = rng.normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def _random_axis(kind: str, n: int, rng) -> list:
+    return (random_quaternions if kind == "so3" else random_directions)(n, rng).tolist()
+
+
+@dataclass
+class SweepSpec:
+    path: Path
+    base: Scenario
+    combine: str
+    axes: list[Axis]
+    seed: int = 0
+    samples: int | None = None
+    methods: list | None = None
+    steps: tuple = ()
+    description: str = ""
+    cells: list[dict] = field(default_factory=list)
+
+
+def cell_id(params: dict) -> str:
+    """A cell's name: a digest of its parameters (stable across runs: what ``--resume`` matches)."""
+    text = json.dumps(params, sort_keys=True, default=str)
+    return hashlib.sha1(text.encode()).hexdigest()[:12]
+
+
+def load_sweep(path) -> SweepSpec:
+    """Read and check a sweep spec; its cells are generated (``.cells``: ``{"id", "params"}``)."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_bytes().decode("utf-8-sig"))
+    except OSError as exc:
+        raise SweepError(f"{path}: cannot read the sweep spec ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise SweepError(f"{path}: not UTF-8 text; a sweep spec is a TOML file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SweepError(f"{path}: not valid TOML: {exc}") from None
+    top = _Reader(path, data, "")
+    try:
+        return _read(path, top, data)
+    except SweepError:
+        raise
+    except ScenarioError as exc:  # the _Reader's own messages (file and key already in them)
+        raise SweepError(str(exc)) from None
+
+
+def _read(path: Path, top: _Reader, data: dict) -> SweepSpec:
+    from .runners import RUNNERS
+
+    for key in data:
+        if key not in _TOP_KEYS:
+            top.fail(key, f"unknown key (expected one of: {', '.join(_TOP_KEYS)})")
+    base_text = top.get("base", "string", required=True)
+    relative = (path.parent / base_text)
+    try:
+        base = resolve_scenario(relative if relative.suffix == ".toml" else base_text)
+    except ScenarioError as exc:
+        top.fail("base", f"the base scenario cannot be used: {exc}")
+    combine = top.get("combine", "string", "product")
+    if combine not in ("product", "sample"):
+        top.fail("combine", f"expected 'product' or 'sample', got {combine!r}")
+    seed = top.get("seed", "integer", 0)
+    samples = None
+    if combine == "sample":
+        samples = top.get("samples", "integer", required=True)
+        if samples < 1:
+            top.fail("samples", f"expected a positive number of cells, got {samples}")
+    elif top.has("samples"):
+        top.fail("samples", "only with combine = \"sample\"")
+    methods = top.get("methods", "strings", None)
+    for m in methods or ():
+        if m not in RUNNERS:
+            top.fail("methods", f"unknown method {m!r}; expected any of {', '.join(RUNNERS)}")
+    if methods is not None and not methods:
+        top.fail("methods", "an empty list: name at least one method")
+    axes_table = top.get("axes", "table", required=True)
+    if not axes_table:
+        top.fail("axes", "no axis: a sweep varies at least one")
+    axes = [_read_axis(path, name, table, base, combine) for name, table in axes_table.items()]
+    steps = base.quick_steps
+    dt_axis = next((a for a in axes if a.name == "dt"), None)
+    if dt_axis is not None:
+        steps = tuple(sorted(set(dt_axis.grid(seed)), reverse=True))
+        axes = [a for a in axes if a.name != "dt"]
+    spec = SweepSpec(path=path, base=base, combine=combine, axes=axes, seed=seed, samples=samples,
+                     methods=methods, steps=steps, description=top.get("description", "string", ""))
+    if not axes and combine == "product":
+        spec.cells = [{"id": cell_id({}), "params": {}}]
+    elif combine == "product":
+        grids = [a.grid(seed) for a in axes]
+        spec.cells = [_cell(dict(zip((a.name for a in axes), combo))) for combo in product(*grids)]
+    else:
+        draws = [a.draw(samples, seed) for a in axes]
+        spec.cells = [_cell({a.name: d[i] for a, d in zip(axes, draws)}) for i in range(samples)]
+    return spec
+
+
+def _cell(params: dict) -> dict:
+    return {"id": cell_id(params), "params": params}
+
+
+def _read_axis(path: Path, name: str, table, base: Scenario, combine: str) -> Axis:
+    from .fields import FIELDS
+
+    def refuse(message):
+        raise SweepError(f"{path}: [axes] {name}: {message}")
+
+    if not isinstance(table, dict):
+        refuse("expected a table (values = [...], or range = [low, high], ...)")
+    ax = _Reader(path, table, f"axes.{name}")
+    if name.startswith("field."):
+        key = name.removeprefix("field.")
+        if base.torque is None or base.torque.get("kind") != "magnetic":
+            refuse(f"the base scenario {base.name} has no magnetic field to vary")
+        declared = FIELDS[base.torque["field"]].keys
+        if key not in declared:
+            refuse(f"the base's field model {base.torque['field']!r} has no key {key!r} (it has: "
+                   f"{', '.join(declared) or 'none'})")
+        kind = {"number": "number", "vector3": "vector3", "string": "string", "path": "path"}[declared[key].kind]
+    elif name in AXES:
+        kind = AXES[name][0]
+        if name in MAGNETIC_AXES and (base.torque is None or base.torque.get("kind") != "magnetic"):
+            refuse(f"the base scenario {base.name} has no magnetic torque: nothing for {name!r} to vary")
+    else:
+        refuse(f"unknown axis (expected one of: {', '.join(AXES)}, or field.<key> of the base's field model)")
+    axis = Axis(name=name, kind=kind)
+    given = [k for k in ("values", "range", "random", "mean") if ax.has(k)]
+    if len(given) != 1:
+        ax.fail("values", "give exactly one of values = [...], range = [low, high], random = \"...\", or (with "
+                          "combine = \"sample\") mean and std")
+    if ax.has("random"):
+        axis.random = ax.get("random", "string")
+        if RANDOM.get(name) != axis.random:
+            ax.fail("random", f"only {', '.join(f'{a} (random = {r!r})' for a, r in RANDOM.items())} are random")
+        if combine == "product":
+            axis.count = ax.get("count", "integer", required=True)
+            if axis.count < 1:
+                ax.fail("count", f"expected a positive number of draws, got {axis.count}")
+    elif ax.has("values"):
+        raw = ax.get("values", "list")
+        if not raw:
+            ax.fail("values", "an empty list: give at least one value")
+        axis.values = [_value(ax, "values", kind, v, path) for v in raw]
+    elif ax.has("range"):
+        if kind not in ("number", "positive"):
+            ax.fail("range", f"a range needs a numeric axis; {name!r} takes {kind} values: use values = [...]")
+        rng = ax.get("range", "numbers")
+        if len(rng) != 2 or not rng[0] < rng[1]:
+            ax.fail("range", f"expected [low, high] with low < high, got {rng}")
+        axis.low, axis.high = float(rng[0]), float(rng[1])
+        if kind == "positive" and axis.low <= 0:
+            ax.fail("range", f"{name} is positive: the range must start above 0, got {rng}")
+        if combine == "product":
+            axis.num = ax.get("num", "integer", required=True)
+            if axis.num < 1:
+                ax.fail("num", f"expected a positive number of points, got {axis.num}")
+            axis.spacing = ax.get("spacing", "string", "linear")
+            if axis.spacing not in ("linear", "log"):
+                ax.fail("spacing", f"expected 'linear' or 'log', got {axis.spacing!r}")
+            if axis.spacing == "log" and axis.low <= 0:
+                ax.fail("spacing", "log spacing needs a range above 0")
+        else:
+            axis.distribution = ax.get("distribution", "string", "uniform")
+            if axis.distribution not in ("uniform", "log-uniform"):
+                ax.fail("distribution", f"with a range: 'uniform' or 'log-uniform', got {axis.distribution!r}")
+            if axis.distribution == "log-uniform" and axis.low <= 0:
+                ax.fail("distribution", "log-uniform needs a range above 0")
+    else:  # mean and std: a normal distribution, sample mode only
+        if combine != "sample":
+            ax.fail("mean", "mean and std describe a distribution: only with combine = \"sample\"")
+        axis.distribution = ax.get("distribution", "string", "normal")
+        if axis.distribution != "normal":
+            ax.fail("distribution", f"with mean and std: 'normal', got {axis.distribution!r}")
+        axis.mean = ax.get("mean", "number")
+        axis.std = ax.get("std", "number", required=True)
+        if kind not in ("number",) or not axis.std > 0:
+            ax.fail("std", "a normal axis is a plain number axis with std > 0 (a positive quantity: use a "
+                           "log-uniform range)")
+    ax.finish()
+    return axis
+
+
+def _value(ax: _Reader, key: str, kind: str, v, path: Path):
+    """One explicit value of an axis, checked for its kind."""
+    def bad(expected):
+        ax.fail(key, f"expected {expected}, got {v!r}")
+
+    if kind in ("number", "positive"):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+            bad("finite numbers")
+        if kind == "positive" and v <= 0:
+            bad("positive numbers")
+        return float(v)
+    if kind in ("vector3", "positive3", "quaternion"):
+        n = 4 if kind == "quaternion" else 3
+        if (not isinstance(v, list) or len(v) != n
+                or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x) for x in v)):
+            bad(f"lists of {n} finite numbers")
+        if kind == "positive3" and min(v) <= 0:
+            bad("three positive principal moments")
+        if kind == "quaternion":
+            norm = float(np.linalg.norm(v))
+            if abs(norm - 1) > 1e-6:
+                bad("unit quaternions [w, x, y, z] (norm 1 within 1e-6)")
+        return [float(x) for x in v]
+    if kind == "path":
+        if not isinstance(v, str):
+            bad("file names")
+        p = (path.parent / v).resolve()
+        if not p.is_file():
+            ax.fail(key, f"no such file {v!r} (resolved to {p})")
+        return str(p)
+    if kind == "string":
+        if not isinstance(v, str):
+            bad("strings")
+        if ax.section == "axes.field":
+            from .fields import FIELDS
+
+            if v not in FIELDS:
+                ax.fail(key, f"unknown field model {v!r}; expected one of {', '.join(FIELDS)}")
+        return v
+    raise AssertionError(kind)
