@@ -315,14 +315,9 @@ def _write_report(args, sections=None, bench=None):
 
 def _cmd_nightly(args) -> int:
     """The full report, compared with the history, then recorded in it (see :mod:`xcheck.nightly`)."""
-    from datetime import datetime, timezone
-
     from . import nightly
-    from .history import HistoryError, open_history
+    from .history import HistoryError, open_history, utc_now
     from .report.io import check_output_dir
-
-    def now():
-        return datetime.now(timezone.utc).isoformat(timespec="seconds")
 
     if args.keep is not None and args.keep < 1:
         raise UsageError(f"--keep: expected a positive number of report folders, got {args.keep}")
@@ -380,13 +375,13 @@ def _cmd_nightly(args) -> int:
             blocks += version_table_blocks(columns, thresholds)
         return summary, blocks, figures
 
-    started = now()
+    started = utc_now()
     if args.bench:  # measured before the report so that its History section can compare the rows
         from .bench import run_bench
 
         bench += run_bench(quick=args.quick, repeat=3)
     studies, folder = _write_report(args, sections=sections, bench=bench)
-    finished = now()
+    finished = utc_now()
     # the report is complete: record it and the matrix's runs, in one transaction
     runs = [dict(results=vr.results, started=v_started, finished=v_finished, git_commit=commit, host=host,
                  report=str(vr.folder), environment=f"mujoco=={vr.version}")

@@ -284,6 +284,13 @@ class History:
             "SELECT scenario, method, dt, metric, value FROM metrics WHERE run_id = ?", (run_id,)).fetchall()}
 
 
+def utc_now() -> str:
+    """The time now in UTC, ISO 8601 to the second: a run's ``started`` and ``finished``."""
+    from datetime import datetime, timezone
+
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
 def _finite(value):
     return None if value is None or not math.isfinite(value) else float(value)
 

@@ -22,8 +22,10 @@ import subprocess
 import sys
 import sysconfig
 from dataclasses import dataclass
-from importlib import metadata
 from pathlib import Path
+
+from .history import utc_now
+from .versions import NOT_INSTALLED, package_version
 
 #: What an environment takes from the running one, pinned (MuJoCo may not pull other versions in).
 PINNED = ("numpy", "scipy", "numba", "llvmlite", "matplotlib")
@@ -48,10 +50,8 @@ def parse_versions(text: str) -> list[str]:
 
 
 def installed_mujoco() -> str | None:
-    try:
-        return metadata.version("mujoco")
-    except metadata.PackageNotFoundError:
-        return None
+    version = package_version("mujoco")
+    return None if version == NOT_INSTALLED else version
 
 
 def env_dir(version: str) -> Path:
@@ -83,7 +83,7 @@ def ensure_env(version: str, log=print) -> Path:
         parent = sysconfig.get_paths()["purelib"]
         # the running environment after the new one's own packages (its .pth files too: an editable xcheck)
         Path(site, "xcheck_parent_environment.pth").write_text(f"import site; site.addsitedir({parent!r})\n")
-        pins = [f"{p}=={metadata.version(p)}" for p in PINNED if _has(p)]
+        pins = [f"{p}=={package_version(p)}" for p in PINNED if package_version(p) != NOT_INSTALLED]
         (tmp / "constraints.txt").write_text("\n".join(pins) + "\n")
         pip = subprocess.run([str(py), "-m", "pip", "install", "--disable-pip-version-check", "--no-input", "-q",
                               "-c", str(tmp / "constraints.txt"), f"mujoco=={version}"],
@@ -105,14 +105,6 @@ def ensure_env(version: str, log=print) -> Path:
         raise MatrixError(f"cannot make a virtual environment: {_reason(exc.stderr)}") from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-
-
-def _has(package: str) -> bool:
-    try:
-        metadata.version(package)
-        return True
-    except metadata.PackageNotFoundError:
-        return False
 
 
 def _reason(stderr: str) -> str:
@@ -164,17 +156,12 @@ def run_matrix(versions: list[str], scenarios: list[str], out_root: Path, *, qui
                log=print) -> list[tuple[VersionRun, str, str]]:
     """:func:`run_version` for every release in ``versions`` but the installed one (the running environment's
     own report covers it): ``[(run, started, finished)]`` with UTC ISO times."""
-    from datetime import datetime, timezone
-
-    def now():
-        return datetime.now(timezone.utc).isoformat(timespec="seconds")
-
     runs = []
     for v in versions:
         if v == installed_mujoco():
             continue
-        started = now()
+        started = utc_now()
         vr = run_version(v, scenarios, out_root, quick=quick, workers=workers, log=log)
         log(f"MuJoCo {v}: {vr.note}" + (f" ({vr.folder}/index.html)" if vr.folder else ""))
-        runs.append((vr, started, now()))
+        runs.append((vr, started, utc_now()))
     return runs

@@ -57,8 +57,8 @@ def check_history(location, baseline: int | None = None) -> None:
             raise H.HistoryError(f"--baseline {baseline}: the history {location} does not exist yet")
         return
     with H.open_history(location, read_only=True) as hist:
-        if baseline is not None and baseline not in {r["id"] for r in hist.runs()}:
-            ids = [r["id"] for r in hist.runs()]
+        ids = [r["id"] for r in hist.runs()]
+        if baseline is not None and baseline not in ids:
             raise H.HistoryError(f"--baseline {baseline}: no such run in {hist.where} (runs "
                                  f"{_id_ranges(ids) or 'none yet'})")
 

@@ -9,11 +9,15 @@ from importlib import metadata
 from . import __version__
 
 
-def _version(package: str) -> str:
+NOT_INSTALLED = "not installed"
+
+
+def package_version(package: str) -> str:
+    """The installed distribution's version, or :data:`NOT_INSTALLED`."""
     try:
         return metadata.version(package)
     except metadata.PackageNotFoundError:
-        return "not installed"
+        return NOT_INSTALLED
 
 
 #: What every result depends on besides xcheck itself and the engines.
@@ -26,8 +30,8 @@ def versions() -> dict:
     for it)."""
     from .engines import ENGINE_PACKAGES
 
-    return {"xcheck": __version__, **{name: _version(pkg) for name, pkg in ENGINE_PACKAGES.items()},
-            **{pkg: _version(pkg) for pkg in CORE_PACKAGES}, "python": platform.python_version()}
+    return {"xcheck": __version__, **{name: package_version(pkg) for name, pkg in ENGINE_PACKAGES.items()},
+            **{pkg: package_version(pkg) for pkg in CORE_PACKAGES}, "python": platform.python_version()}
 
 
 def machine() -> dict:
