@@ -322,13 +322,19 @@ def report_metrics(results: dict):
         for method, m in sc["methods"].items():
             yield name, method, None, "observed_order", m.get("observed_order")
             yield name, method, None, "verdict", float(m.get("verdict") in ("pass", "expected"))
-            ok = [r for r in m["runs"] if r.get("status") == "ok" and r.get("attitude_error") is not None]
-            if ok:
-                yield name, method, None, "finest_error", min(ok, key=lambda r: r["dt"])["attitude_error"]
+            finest = finest_error(m)
+            if finest is not None:
+                yield name, method, None, "finest_error", finest
             for r in m["runs"]:
                 for metric in RUN_METRICS:
                     if r.get(metric) is not None:
                         yield name, method, r["dt"], metric, r[metric]
+
+
+def finest_error(method_doc: dict) -> float | None:
+    """A method's attitude error at its finest good run (of a ``results.json`` method entry), or None."""
+    ok = [r for r in method_doc["runs"] if r.get("status") == "ok" and r.get("attitude_error") is not None]
+    return min(ok, key=lambda r: r["dt"])["attitude_error"] if ok else None
 
 
 def bench_metrics(throughput):

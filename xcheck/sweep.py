@@ -258,7 +258,7 @@ def _read_axis(path: Path, name: str, table, base: Scenario, combine: str) -> Ax
         if key not in declared:
             refuse(f"the base's field model {base.torque['field']!r} has no key {key!r} (it has: "
                    f"{', '.join(declared) or 'none'})")
-        kind = {"number": "number", "vector3": "vector3", "string": "string", "path": "path"}[declared[key].kind]
+        kind = declared[key].kind  # the axis kinds include the field keys' kinds
     elif name in AXES:
         kind = AXES[name][0]
         if name in MAGNETIC_AXES and (base.torque is None or base.torque.get("kind") != "magnetic"):
@@ -315,7 +315,7 @@ def _read_axis(path: Path, name: str, table, base: Scenario, combine: str) -> Ax
             ax.fail("distribution", f"with mean and std: 'normal', got {axis.distribution!r}")
         axis.mean = ax.get("mean", "number")
         axis.std = ax.get("std", "number", required=True)
-        if kind not in ("number",) or not axis.std > 0:
+        if kind != "number" or not axis.std > 0:
             ax.fail("std", "a normal axis is a plain number axis with std > 0 (a positive quantity: use a "
                            "log-uniform range)")
     ax.finish()

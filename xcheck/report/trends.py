@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from ..history import MIN_TIMED, VERSION_COLUMNS
+from ..history import MIN_TIMED, VERSION_COLUMNS, finest_error
 from .document import Cell, Figure, Heading, Para, Table, step_label
 
 __all__ = ["history_section", "version_table_blocks"]
@@ -179,7 +179,7 @@ def version_table_blocks(columns: list[tuple], thresholds=None) -> list:
                     cells.append(Cell())
                     left = None
                     continue
-                p, e = d.get("observed_order"), _finest_error(d)
+                p, e = d.get("observed_order"), finest_error(d)
                 cls = ""
                 if left is not None:
                     lp, le = left
@@ -195,8 +195,3 @@ def version_table_blocks(columns: list[tuple], thresholds=None) -> list:
         blocks.append(Heading(3, scenario))
         blocks.append(Table(["method"] + [f"MuJoCo {v}" for v, _ in docs], rows))
     return blocks
-
-
-def _finest_error(method_doc):
-    ok = [r for r in method_doc["runs"] if r.get("status") == "ok" and r.get("attitude_error") is not None]
-    return min(ok, key=lambda r: r["dt"])["attitude_error"] if ok else None
