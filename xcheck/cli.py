@@ -1,6 +1,6 @@
 """The ``xcheck`` command line.
 
-``xcheck list | converge | run | report | nightly | bench``. Exit codes: 0 when every check passed (and, for
+``xcheck list | converge | run | report | nightly | sweep | bench``. Exit codes: 0 when every check passed (and, for
 ``nightly``, nothing regressed), 1 when a check failed (or something regressed), 2 for bad input (the message names the file, key, argument or path), 130 when interrupted (Ctrl-C),
 143 when terminated (SIGTERM), 3 for a bug in xcheck (a one-line message asking to report it; the traceback
 with ``XCHECK_DEBUG=1``). Every input and output path is checked before any work starts.
@@ -55,7 +55,8 @@ class Progress:
         width = 30
         filled = int(width * done / max(total, 1))
         elapsed = time.perf_counter() - self.start
-        line = f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} {elapsed:5.1f}s {label}"
+        eta = f" ETA {elapsed * (total - done) / done:4.0f}s" if 0 < done < total else ""
+        line = f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} {elapsed:5.1f}s{eta} {label}"
         self.stream.write(line[:120].ljust(120))
         self.stream.flush()
         if done >= total:
@@ -431,6 +432,43 @@ def _cmd_bench(args) -> int:
     return bench_main(argv)
 
 
+def _cmd_sweep(args) -> int:
+    """A sweep: every cell a cross-check (see :mod:`xcheck.sweep` and :mod:`xcheck.sweep_run`)."""
+    from .report.io import check_output_dir
+    from .sweep import load_sweep
+    from .sweep_run import PARTIAL_LOG, run_sweep
+
+    if args.jobs is not None and args.jobs < 1:
+        raise UsageError(f"--jobs: expected a positive number of processes, got {args.jobs}")
+    if args.scheduler and args.executor != "dask":
+        raise UsageError("--scheduler: only with --executor dask")
+    spec = load_sweep(args.spec)
+    check_output_dir(args.out, "--out")
+    jobs = args.jobs or os.cpu_count() or 1
+    n = len(spec.cells)
+    print(f"sweep {spec.path.stem}: {n} cell{'s' * (n != 1)} x {len(spec.steps)} steps, base {spec.base.name}, on "
+          f"{'a Dask cluster' if args.executor == 'dask' else f'{jobs} process' + 'es' * (jobs > 1)}")
+    try:
+        out = run_sweep(spec, args.out, jobs=jobs, resume=args.resume, kind=args.executor, scheduler=args.scheduler,
+                        progress=Progress())
+    except KeyboardInterrupt:
+        log = Path(args.out) / spec.path.stem / PARTIAL_LOG
+        if log.exists():
+            print(f"\nxcheck: the cells finished so far are kept in {log}; run again with --resume to skip them",
+                  file=sys.stderr)
+        raise
+    passed = sum(r["passed"] for r in out.records)
+    t = out.timings
+    if out.ran:
+        print(f"{out.ran} cells in {out.wall_time:.1f} s: {t['cells_per_second']:.2f} cells/s; start-up "
+              f"{t['executor_start']:.2f} s; per cell (median): model and torque {1e3 * t['context']:.1f} ms, reference "
+              f"{1e3 * t['reference']:.1f} ms, compute {1e3 * t['compute']:.1f} ms")
+    if out.reused:
+        print(f"{out.reused} cells from the earlier run (--resume)")
+    print(f"sweep: {out.folder}/index.html; {passed} of {n} cells passed every check")
+    return EXIT_OK if passed == n else EXIT_CHECK_FAILED
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="xcheck", description="MuJoCo-validated rigid-body attitude cross-checker")
     parser.add_argument("--version", action="version", version=f"xcheck {__version__}")
@@ -492,6 +530,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="quick reports (a series of their own in the history)")
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
     p.set_defaults(func=_cmd_nightly)
+
+    p = sub.add_parser("sweep", help="a model-swap sweep: many cross-checks over bodies, fields, states and steps")
+    p.add_argument("spec", help="a sweep spec (.toml; see docs/sweeps.md and models/sweeps/)")
+    p.add_argument("--out", default=os.path.join("reports", "sweeps"), metavar="DIR",
+                   help="where sweeps go: DIR/<spec name>/<time>/ (default: ./reports/sweeps)")
+    p.add_argument("--jobs", type=int, default=None, metavar="N", help="worker processes (default: CPU count)")
+    p.add_argument("--resume", action="store_true",
+                   help="keep the cells an interrupted (or the latest) run of this spec finished; run the rest")
+    p.add_argument("--executor", choices=("local", "dask"), default="local",
+                   help="local processes, or a Dask distributed cluster (pip install 'xcheck[distributed]')")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="with --executor dask: the scheduler (tcp://host:8786); default a LocalCluster of --jobs")
+    p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("bench", help="steps per second of every method, ours and the engines'")
     p.add_argument("--json", metavar="PATH", help="write the rows as JSON (schema xcheck.bench/1)")

@@ -18,6 +18,10 @@ xcheck[postgres]``), with three tables:
                  ``order_floor`` per scenario (method ``""``); ``check:<name>`` (1 passed, 0 failed) per check;
                  ``bench_steps_per_second`` per ``xcheck bench`` row (scenario, method, dt NULL, the batch size
                  in the method name when > 1).
+``sweep_cells``  (schema 2) the parameters of a sweep's cells (``xcheck sweep``): run id, scenario (the cell's
+                 name in ``metrics``: ``<base>/<cell id>``), parameter (an axis, one component of a vector axis, or
+                 its summary: ``dipole_scale``, ``rate_x``, ``attitude_angle_deg``), value (a number) or text (a
+                 model file, a field model). Join it with ``metrics`` on run id and scenario.
 
 A run is recorded in one transaction after its report is complete: a run that fails or is interrupted
 records nothing, and a killed writer leaves the database as it was. Concurrent writers wait for each other
@@ -35,7 +39,7 @@ from pathlib import Path
 
 APPLICATION = "xcheck.history"
 #: Raise with every change of the tables, and migrate older databases in ``History.__init__``.
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 #: Seconds a writer waits for another's transaction before giving up.
 BUSY_TIMEOUT = 60.0
 
@@ -45,7 +49,7 @@ RUN_METRICS = ("attitude_error", "max_attitude_error", "energy_drift", "momentum
                "steps_per_second")
 #: Versions whose change between two runs is marked on the History section's time axis.
 VERSION_COLUMNS = ("xcheck", "mujoco", "numpy", "scipy", "numba", "python")
-TABLES = ("xcheck_meta", "runs", "metrics")
+TABLES = ("xcheck_meta", "runs", "metrics", "sweep_cells")
 
 # {id} and {real} are the dialect's: SQLite's REAL is a double, PostgreSQL's a single (DOUBLE PRECISION there)
 _SCHEMA = """
@@ -60,7 +64,11 @@ CREATE TABLE IF NOT EXISTS metrics (
     run_id INTEGER NOT NULL REFERENCES runs(id),
     scenario TEXT NOT NULL, method TEXT NOT NULL, dt {real}, metric TEXT NOT NULL, value {real});
 CREATE INDEX IF NOT EXISTS metrics_by_run ON metrics (run_id);
-CREATE INDEX IF NOT EXISTS metrics_by_key ON metrics (scenario, method, metric, dt)
+CREATE INDEX IF NOT EXISTS metrics_by_key ON metrics (scenario, method, metric, dt);
+CREATE TABLE IF NOT EXISTS sweep_cells (
+    run_id INTEGER NOT NULL REFERENCES runs(id),
+    scenario TEXT NOT NULL, parameter TEXT NOT NULL, value {real}, text TEXT);
+CREATE INDEX IF NOT EXISTS sweep_cells_by_run ON sweep_cells (run_id, scenario)
 """
 
 
@@ -213,6 +221,8 @@ class History:
                 self.con.execute(statement)
             for key, value in (("application", APPLICATION), ("schema_version", str(SCHEMA_VERSION))):
                 self._execute("INSERT INTO xcheck_meta VALUES (?, ?) ON CONFLICT (key) DO NOTHING", (key, value))
+            # schema 1 -> 2: the sweep_cells table, created above
+            self._execute("UPDATE xcheck_meta SET value = ? WHERE key = 'schema_version'", (str(SCHEMA_VERSION),))
 
     def _execute(self, statement, params=()):
         return self.con.execute(self.db.sql(statement), params)
@@ -241,7 +251,8 @@ class History:
     # -------------------------------------------------------------------------------------------------
     def record(self, results: dict, *, started: str, finished: str, git_commit: str | None = None,
                host: str | None = None, report: str | None = None, throughput=None, environment: str = "") -> int:
-        """Store a report's ``results.json`` document (and ``xcheck bench`` rows) as one run; returns its id."""
+        """Store a report's ``results.json`` document (and ``xcheck bench`` rows) as one run; returns its id.
+        (:meth:`record_runs` also takes ``cells``: ``(scenario, parameter, value)`` rows of a sweep.)"""
         return self.record_runs([dict(results=results, started=started, finished=finished, git_commit=git_commit,
                                       host=host, report=report, throughput=throughput, environment=environment)])[0]
 
@@ -258,7 +269,7 @@ class History:
         with self.transaction():
             for run in runs:
                 run = dict(run)
-                results, throughput = run.pop("results"), run.pop("throughput", None)
+                results, throughput, cells = run.pop("results"), run.pop("throughput", None), run.pop("cells", ())
                 row = run_row(results, **run)
                 run_id = self._execute(f"INSERT INTO runs ({', '.join(RUN_COLUMNS)}) VALUES "
                                        f"({', '.join('?' * len(RUN_COLUMNS))}) RETURNING id",
@@ -266,6 +277,10 @@ class History:
                 metrics = [*report_metrics(results), *bench_metrics(throughput)]
                 self.db.executemany(self.con, self.db.sql("INSERT INTO metrics VALUES (?, ?, ?, ?, ?, ?)"),
                                     [(run_id, *m[:4], _finite(m[4])) for m in metrics])
+                if cells:
+                    self.db.executemany(self.con, self.db.sql("INSERT INTO sweep_cells VALUES (?, ?, ?, ?, ?)"),
+                                        [(run_id, sc, name, _finite(v) if isinstance(v, (int, float)) else None,
+                                          v if isinstance(v, str) else None) for sc, name, v in cells])
                 ids.append(run_id)
 
     def runs(self, *, quick: bool | None = None, environment: str | None = None) -> list[dict]:

@@ -45,7 +45,9 @@ class MJCFBody(RigidBody):
     """A :class:`~xcheck.body.RigidBody` read from an MJCF file, with where it came from.
 
     ``notes`` lists what was changed to bring the model into scope (e.g. gravity switched off);
-    ``body_id``, ``qpos_adr`` and ``dof_adr`` locate the free body in the MuJoCo model.
+    ``body_id``, ``qpos_adr`` and ``dof_adr`` locate the free body in the MuJoCo model; ``model_moments`` and
+    ``model_iquat`` are its principal moments and principal frame as MuJoCo compiled them (``body_inertia``,
+    ``body_iquat``): what a sweep's inertia axis replaces or scales.
     """
 
     path: str = ""
@@ -53,6 +55,13 @@ class MJCFBody(RigidBody):
     body_id: int = 1
     qpos_adr: int = 0
     dof_adr: int = 0
+    model_moments: tuple = ()
+    model_iquat: tuple = (1.0, 0.0, 0.0, 0.0)
+
+    def inertia_with(self, moments) -> np.ndarray:
+        """The body-frame inertia tensor with ``moments`` in place of :attr:`model_moments` (same axes)."""
+        R = rot.quat_to_dcm(np.asarray(self.model_iquat, dtype=float))
+        return R @ np.diag(np.asarray(moments, dtype=float)) @ R.T
 
 
 def load_body(path) -> MJCFBody:
@@ -151,7 +160,8 @@ def load_mujoco(path) -> tuple[mujoco.MjModel, MJCFBody]:
     try:
         body = MJCFBody(inertia=inertia, mass=float(model.body_mass[body_id]), dipole=dipole,
                         name=body_name if not body_name.startswith("#") else path.stem, path=where,
-                        notes=tuple(notes), body_id=body_id, qpos_adr=int(model.jnt_qposadr[jnt]), dof_adr=dof)
+                        notes=tuple(notes), body_id=body_id, qpos_adr=int(model.jnt_qposadr[jnt]), dof_adr=dof,
+                        model_moments=tuple(moments.tolist()), model_iquat=tuple(model.body_iquat[body_id].tolist()))
     except ValueError as exc:
         raise ModelError(f"{where}: body '{body_name}': {exc}") from None
     for note in notes:

@@ -15,7 +15,9 @@ __all__ = ["Runner", "RUNNERS", "RunContext"]
 @dataclass
 class RunContext:
     """What a runner needs: the body (inertia from the MJCF), the MJCF path, the initial state, the
-    duration, the torque model (or None) and the Euler sequence of Euler-angle methods."""
+    duration, the torque model (or None) and the Euler sequence of Euler-angle methods. ``model_moments``:
+    principal moments that replace the MJCF's in MuJoCo's model (``body_inertia``) when a sweep changes the
+    inertia (``inertia`` is then the same body's tensor); None: the MJCF's own."""
 
     inertia: object
     model_path: str
@@ -24,6 +26,7 @@ class RunContext:
     duration: float
     torque: object = None
     sequence: str = "323"
+    model_moments: tuple | None = None
 
 
 @dataclass(frozen=True)
@@ -63,7 +66,7 @@ def _mujoco(integrator):
         from .engines.mujoco import simulate
 
         return simulate(ctx.model_path, integrator=integrator, q0=ctx.q0, omega0=ctx.omega0, dt=dt,
-                        duration=ctx.duration, torque=ctx.torque)
+                        duration=ctx.duration, torque=ctx.torque, inertia_moments=ctx.model_moments)
     return run
 
 

@@ -94,6 +94,9 @@ class Scenario:
     reference_method: str = "lie-rkmk4"
     reference_dt: float = 1e-4
     checks: dict = field(default_factory=lambda: dict(DEFAULT_CHECKS))
+    #: principal moments [kg m^2] replacing the model's, along its principal axes in MuJoCo's order
+    #: (``body_inertia``); None: the model's own. Set by a sweep's inertia axes (:mod:`xcheck.sweep`).
+    inertia: tuple | None = None
 
 
 class _Reader:

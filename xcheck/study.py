@@ -181,7 +181,7 @@ _PARTNER_RUNS: dict = {}  # (scenario key, partner, dt) -> Trajectory | None (se
 def _key(scenario: Scenario):
     return (str(scenario.path), scenario.name, str(scenario.model), scenario.duration, tuple(scenario.q0),
             tuple(scenario.omega0), scenario.sequence, repr(scenario.torque), scenario.reference,
-            scenario.reference_method, scenario.reference_dt)
+            scenario.reference_method, scenario.reference_dt, scenario.inertia)
 
 
 def _cached(kind, scenario, make):
@@ -205,9 +205,11 @@ def run_context(scenario: Scenario) -> RunContext:
         from .models import load_body
 
         body = load_body(scenario.model)
-        return RunContext(inertia=body.inertia, model_path=str(scenario.model), q0=scenario.q0,
-                          omega0=scenario.omega0, duration=scenario.duration, torque=build_torque(scenario, body),
-                          sequence=scenario.sequence)
+        moments = scenario.inertia
+        return RunContext(inertia=body.inertia if moments is None else body.inertia_with(moments),
+                          model_path=str(scenario.model), q0=scenario.q0, omega0=scenario.omega0,
+                          duration=scenario.duration, torque=build_torque(scenario, body), sequence=scenario.sequence,
+                          model_moments=None if moments is None else tuple(moments))
     return _cached("context", scenario, make)
 
 
@@ -272,12 +274,11 @@ def _run_method(scenario: Scenario, method: str, steps: tuple, partner: str | No
                 "series": None, "reference_error": str(exc), "comparisons": []}  # the reason
 
 
-def _measure_method(scenario: Scenario, method: str, steps: tuple, partner: str | None) -> dict:
+def _measure_method(scenario: Scenario, method: str, steps: tuple, partner: str | None, sample: bool = True) -> dict:
     ctx = run_context(scenario)
     ref = scenario_reference(scenario)
     runner = RUNNERS[method]
     _warm(runner, ctx, steps)
-    torque_free = ctx.torque is None
     runs, finest, comparisons = [], None, []
     for dt in steps:
         t0 = time.perf_counter()
@@ -286,29 +287,35 @@ def _measure_method(scenario: Scenario, method: str, steps: tuple, partner: str 
         except ValueError as exc:  # e.g. a step the run cannot take
             runs.append(Run.failed(dt, "failed", f"{method}: {exc}", time.perf_counter() - t0))
             continue
-        wall = time.perf_counter() - t0
-        n, _ = step_plan(dt, ctx.duration)
-        if not traj.ok:
-            runs.append(Run.failed(dt, traj.status, traj.message, wall))
-            continue
-        q_ref, w_ref, mask = ref.at(traj.t)
-        sub = _subset(traj, mask)
-        err = errors_against(sub, q_ref[mask], w_ref[mask])
-        drift = invariant_drift(ctx.inertia, traj)
-        run = Run(dt=dt, **err, energy_drift=drift["energy_drift"] if torque_free else None,
-                  momentum_drift=drift["momentum_drift"] if torque_free else None, norm_drift=drift["norm_drift"],
-                  wall_time=wall, steps_per_second=n / wall if wall > 0 else None)
-        if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
-            runs.append(Run.failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall))
-            continue
+        run = measure_run(method, traj, ref, ctx, dt, time.perf_counter() - t0)
         runs.append(run)
+        if not run.ok:
+            continue
         finest = (dt, traj)
         if partner is not None:
             difference = _difference(scenario, ctx, traj, partner, dt)
             if difference is not None:
                 comparisons.append({"a": method, "b": partner, "dt": dt, "max_attitude_difference": difference})
-    series = _sample(finest, ref, ctx) if finest is not None else None
+    series = _sample(finest, ref, ctx) if finest is not None and sample else None
     return {"method": method, "runs": runs, "series": series, "comparisons": comparisons}
+
+
+def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float) -> Run:
+    """One run's metrics against the reference ``ref`` (a failed :class:`Run` when the trajectory stopped or
+    its errors are not finite); ``wall`` [s] is its wall time."""
+    if not traj.ok:
+        return Run.failed(dt, traj.status, traj.message, wall)
+    n, _ = step_plan(dt, ctx.duration)
+    q_ref, w_ref, mask = ref.at(traj.t)
+    err = errors_against(_subset(traj, mask), q_ref[mask], w_ref[mask])
+    drift = invariant_drift(ctx.inertia, traj)
+    torque_free = ctx.torque is None
+    run = Run(dt=dt, **err, energy_drift=drift["energy_drift"] if torque_free else None,
+              momentum_drift=drift["momentum_drift"] if torque_free else None, norm_drift=drift["norm_drift"],
+              wall_time=wall, steps_per_second=n / wall if wall > 0 else None)
+    if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
+        return Run.failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall)
+    return run
 
 
 _WARM: set = set()

@@ -53,7 +53,8 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-__all__ = ["SweepError", "SweepSpec", "Axis", "load_sweep", "AXES", "random_quaternions", "random_directions"]
+__all__ = ["SweepError", "SweepSpec", "Axis", "load_sweep", "apply_cell", "AXES", "random_quaternions",
+           "random_directions"]
 
 
 class SweepError(ScenarioError):
@@ -219,6 +220,8 @@ def _read(path: Path, top: _Reader, data: dict) -> SweepSpec:
     if not axes_table:
         top.fail("axes", "no axis: a sweep varies at least one")
     axes = [_read_axis(path, name, table, base, combine) for name, table in axes_table.items()]
+    for a in axes:
+        _check_axis_against_base(path, a, base, seed)
     steps = base.quick_steps
     dt_axis = next((a for a in axes if a.name == "dt"), None)
     if dt_axis is not None:
@@ -237,8 +240,132 @@ def _read(path: Path, top: _Reader, data: dict) -> SweepSpec:
     return spec
 
 
+def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int) -> None:
+    """Refuse, before anything runs, an axis value the base scenario cannot take: a model xcheck cannot load
+    (or without the dipole the base's magnetic torque needs), inertia no rigid body has, a field model without
+    a key it requires, a scale of a zero rate, a field parameter its model refuses."""
+    from .body import validate_inertia
+    from .models import ModelError, load_body
+
+    def refuse(message):
+        raise SweepError(f"{path}: [axes] {axis.name}: {message}")
+
+    if axis.name in ("rate_scale", "rate_direction") and not np.any(base.omega0):
+        refuse(f"the base scenario {base.name} starts at rest: there is no rate to scale or turn")
+    if axis.name == "dt":
+        from .scenario import check_steps
+
+        try:
+            check_steps(sorted(set(axis.grid(seed)), reverse=True), base.duration)
+        except ValueError as exc:
+            refuse(f"{exc} (the base's duration is {base.duration:g} s)")
+        return
+    if axis.random or axis.name in ("attitude", "rate", "rate_deg"):
+        return  # any unit quaternion and any rate are a state
+    probes = axis.values if axis.values is not None else [v for v in (axis.low, axis.high) if v is not None]
+    for value in probes:
+        if axis.name == "model":
+            try:
+                body = load_body(value)
+            except ModelError as exc:
+                refuse(f"{exc}")
+        if axis.name == "inertia":
+            try:
+                validate_inertia(value)
+            except ValueError as exc:
+                refuse(f"{value}: {str(exc).removeprefix('inertia: ')}")
+        if axis.name == "field":
+            from .fields import FIELDS
+
+            missing = [k for k, key in FIELDS[value].keys.items() if key.required and k not in base.torque]
+            if missing:
+                refuse(f"the field model {value!r} needs {', '.join(missing)}, which the base's [torque] does not "
+                       "give")
+        if axis.name == "model" or axis.name == "field" or axis.name.startswith("field.") or "dipole" in axis.name:
+            from .scenario import build_torque
+
+            sc = apply_cell(base, {axis.name: value})
+            try:
+                body = load_body(sc.model)
+                build_torque(sc, body)
+            except ValueError as exc:
+                refuse(f"{value!r}: {exc}")
+
+
+#: A vector axis' scalar summary: its column in the tidy table and the x axis of its figure.
+SUMMARIES = {
+    "attitude": ("attitude_angle_deg", "initial rotation angle from the world frame [deg]"),
+    "rate": ("rate_norm", "|ω0| [rad/s]"),
+    "rate_deg": ("rate_deg_norm", "|ω0| [deg/s]"),
+    "rate_direction": ("rate_tilt_deg", "angle between ω0 and the body z axis [deg]"),
+    "dipole": ("dipole_norm", "|m| [A m²]"),
+    "inertia": ("inertia_ratio", "largest / smallest principal moment"),
+}
+
+
+def axis_summary(name: str, value) -> tuple[str, float]:
+    """``(column, value)``: the scalar that stands for a vector axis' value in tables and figures."""
+    v = np.asarray(value, dtype=float)
+    if name == "attitude":
+        return SUMMARIES[name][0], float(np.degrees(2 * np.arccos(min(1.0, abs(v[0]) / np.linalg.norm(v)))))
+    if name == "rate_direction":
+        return SUMMARIES[name][0], float(np.degrees(np.arccos(np.clip(v[2] / np.linalg.norm(v), -1, 1))))
+    if name == "inertia":
+        return SUMMARIES[name][0], float(v.max() / v.min())
+    return SUMMARIES[name][0], float(np.linalg.norm(v))
+
+
 def _cell(params: dict) -> dict:
     return {"id": cell_id(params), "params": params}
+
+
+def apply_cell(base: Scenario, params: dict) -> Scenario:
+    """The scenario of one cell: ``base`` with the cell's parameters in place (a new :class:`Scenario`; the
+    base is not changed). The order is fixed: the model first (its inertia and dipole are what the scales
+    scale), then inertia, dipole, field, attitude and rate."""
+    import dataclasses
+
+    from .models import load_body
+
+    sc = dataclasses.replace(base, torque=dict(base.torque) if base.torque else None)
+    if "model" in params:
+        sc.model = Path(params["model"])
+    body = load_body(sc.model) if ("inertia_scale" in params or "dipole_scale" in params) else None
+    if "inertia" in params:
+        sc.inertia = tuple(params["inertia"])
+    if "inertia_scale" in params:
+        moments = sc.inertia if sc.inertia is not None else body.model_moments
+        sc.inertia = tuple(params["inertia_scale"] * m for m in moments)
+    if "dipole" in params:
+        sc.torque["dipole"] = list(params["dipole"])
+    if "dipole_scale" in params:
+        dipole = sc.torque.get("dipole", body.dipole)
+        sc.torque["dipole"] = [params["dipole_scale"] * float(m) for m in dipole]
+    if "field" in params:
+        from .fields import FIELDS
+
+        keys = FIELDS[params["field"]].keys
+        sc.torque = {k: v for k, v in sc.torque.items() if k in ("kind", "dipole") or k in keys}
+        sc.torque["field"] = params["field"]
+    for name, value in params.items():
+        if name.startswith("field."):
+            key = name.removeprefix("field.")
+            from .fields import FIELDS
+
+            if key in FIELDS[sc.torque["field"]].keys:  # a key the cell's field model has
+                sc.torque[key] = value
+    if "attitude" in params:
+        sc.q0 = np.asarray(params["attitude"], dtype=float) / np.linalg.norm(params["attitude"])
+    if "rate" in params:
+        sc.omega0 = np.asarray(params["rate"], dtype=float)
+    if "rate_deg" in params:
+        sc.omega0 = np.radians(np.asarray(params["rate_deg"], dtype=float))
+    if "rate_scale" in params:
+        sc.omega0 = params["rate_scale"] * sc.omega0
+    if "rate_direction" in params:
+        d = np.asarray(params["rate_direction"], dtype=float)
+        sc.omega0 = np.linalg.norm(sc.omega0) * d / np.linalg.norm(d)
+    return sc
 
 
 def _read_axis(path: Path, name: str, table, base: Scenario, combine: str) -> Axis:

@@ -85,7 +85,7 @@ def _prepare(model) -> tuple[mujoco.MjModel, MJCFBody]:
 
 
 def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, torque=None,
-             torque_mode: str = "callback") -> Trajectory:
+             torque_mode: str = "callback", inertia_moments=None) -> Trajectory:
     """Run MuJoCo on one free body.
 
     Parameters
@@ -100,6 +100,9 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
     torque : None, TorqueModel or callable ``(t, q, omega) -> (3,)``
         Body-frame torque [N m], evaluated at every stage (``torque_mode="callback"``) or once per step
         and held (``"held"``).
+    inertia_moments : None or (3,)
+        Principal moments [kg m^2] written into the compiled model's ``body_inertia`` (the principal axes,
+        ``body_iquat``, kept): a sweep's inertia axis without rewriting the MJCF. None: the MJCF's own.
 
     Returns
     -------
@@ -117,6 +120,13 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
     elif torque is not None and not callable(torque):
         raise ValueError(f"torque: expected None, a TorqueModel or a callable (t, q, omega) -> (3,), got "
                          f"{type(torque).__name__}")
+    if inertia_moments is not None:
+        from ..body import validate_inertia
+
+        moments = np.asarray(inertia_moments, dtype=float)
+        validate_inertia(moments, name="inertia_moments")
+        m.body_inertia[body.body_id] = moments
+        mujoco.mj_setConst(m, mujoco.MjData(m))  # the constants derived from it (dof_M0, invweights) follow
     m.opt.integrator = INTEGRATORS[integrator]
     m.opt.timestep = float(dt)
     m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET  # a blow-up must show, not restart from rest

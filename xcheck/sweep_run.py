@@ -1,0 +1,480 @@
+"""Running a sweep (issue 12): every cell a cross-check, in chunks on an executor, logged as it finishes.
+
+Data flow::
+
+    load_sweep(spec) -> cells -> plan_chunks: cells that differ only in initial state or inertia (same model,
+    torque, duration) go together -> run_chunk, in a worker: our batch methods through integrate_batch in one
+    call per step, the others one run at a time; one record per cell (the study's metrics, orders, checks)
+    -> the log, one JSON line per cell, flushed and synced per chunk (what --resume reads)
+    -> when every cell is in: the tidy table (CSV), the database (the history's schema), figures, index.html,
+    written into a hidden folder and renamed into place (:mod:`xcheck.report.sweep`).
+
+The executor is this process (``--jobs 1``), a pool of worker processes (``--jobs N``), or a Dask cluster
+(``--executor dask``): the same chunks and the same functions, so the results are the same; only the
+wall times differ. Nothing here imports MuJoCo or matplotlib: the engine is imported by the runs that need it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .runners import RUNNERS
+from .sweep import SweepError, SweepSpec, apply_cell
+
+__all__ = ["SweepLog", "plan_chunks", "run_chunk", "sweep_methods", "fingerprint", "executor", "CHUNK",
+           "LOG_SCHEMA", "flat_params"]
+
+LOG_SCHEMA = "xcheck.sweep-log/1"
+#: Cells per task: enough to amortise a task's overhead and fill a batch, few enough that an interrupted
+#: sweep loses little and two workers share the work evenly.
+CHUNK = 10
+
+
+def sweep_methods(spec: SweepSpec) -> list[str]:
+    from .study import default_methods
+
+    return list(spec.methods) if spec.methods else default_methods(spec.base)
+
+
+def fingerprint(spec: SweepSpec) -> str:
+    """What a cell's result depends on besides its parameters: the base scenario's and its files' bytes, the
+    methods and the steps. A log written under another fingerprint cannot be resumed."""
+    h = hashlib.sha1()
+    files = [spec.base.path, spec.base.model] + [v for k, v in (spec.base.torque or {}).items() if k == "table"]
+    for f in files:
+        h.update(Path(f).read_bytes())
+    h.update(json.dumps({"methods": sweep_methods(spec), "steps": list(spec.steps)}).encode())
+    return h.hexdigest()[:16]
+
+
+# ------------------------------------------------------------------------------------------------------
+# the log: one JSON line per finished cell, what --resume reads
+# ------------------------------------------------------------------------------------------------------
+class SweepLog:
+    """The cells finished so far, in a JSON-lines file: a header line (schema, fingerprint), then one record per
+    cell. Appended and synced per chunk; a line cut short by a kill is dropped when the log is read."""
+
+    def __init__(self, path: Path, fp: str):
+        self.path, self.fingerprint = Path(path), fp
+        self.records: dict[str, dict] = {}
+
+    def read(self, source: Path | None = None) -> int:
+        """The records of an earlier run (``source``, default this log) whose fingerprint matches; a log of
+        another base, methods or steps is a :class:`SweepError`. Returns how many were read."""
+        source = Path(source or self.path)
+        lines = source.read_text(encoding="utf-8").splitlines()
+        try:
+            header = json.loads(lines[0]) if lines else {}
+        except json.JSONDecodeError:
+            header = {}
+        if header.get("schema") != LOG_SCHEMA:
+            raise SweepError(f"{source}: not an xcheck sweep log; remove it or run without --resume")
+        if header.get("fingerprint") != self.fingerprint:
+            raise SweepError(f"{source}: written for another base scenario, model, methods or steps than the spec "
+                             "now names; run without --resume to start over")
+        for line in lines[1:]:
+            try:
+                rec = json.loads(line)
+            except json.JSONDecodeError:  # the last line of a killed writer
+                continue
+            self.records[rec["id"]] = rec
+        return len(self.records)
+
+    def start(self) -> None:
+        """Write the log afresh: its header and the records kept (atomic; appended to from then on)."""
+        from .report.io import write_text_atomic
+
+        lines = [json.dumps({"schema": LOG_SCHEMA, "fingerprint": self.fingerprint})]
+        lines += [json.dumps(r, allow_nan=False) for r in self.records.values()]
+        write_text_atomic(self.path, "\n".join(lines) + "\n")
+
+    def append(self, records: list[dict]) -> None:
+        with open(self.path, "a", encoding="utf-8") as f:
+            f.write("".join(json.dumps(r, allow_nan=False) + "\n" for r in records))
+            f.flush()
+            os.fsync(f.fileno())
+        for r in records:
+            self.records[r["id"]] = r
+
+
+# ------------------------------------------------------------------------------------------------------
+# planning: chunks of cells that can share a batch
+# ------------------------------------------------------------------------------------------------------
+def _batch_key(sc) -> str:
+    """Cells with the same key differ only in initial state or inertia: one integrate_batch call serves them."""
+    return json.dumps([str(sc.model), sc.torque, sc.duration, sc.sequence, sc.reference, sc.reference_method,
+                       sc.reference_dt], sort_keys=True, default=str)
+
+
+def plan_chunks(spec: SweepSpec, cells: list[dict]) -> list[list[tuple]]:
+    """``cells`` (``{"id", "params"}``) as chunks of ``(id, params, scenario)``: grouped by batch key (in the
+    order of first appearance), then cut into :data:`CHUNK` cells. Independent of the executor and the number
+    of workers, so that every executor computes the same batches."""
+    groups: dict[str, list] = {}
+    for cell in cells:
+        sc = apply_cell(spec.base, cell["params"])
+        sc.name = spec.base.name
+        groups.setdefault(_batch_key(sc), []).append((cell["id"], cell["params"], sc))
+    return [g[i:i + CHUNK] for g in groups.values() for i in range(0, len(g), CHUNK)]
+
+
+# ------------------------------------------------------------------------------------------------------
+# in a worker
+# ------------------------------------------------------------------------------------------------------
+@dataclass
+class _Cell:
+    id: str
+    params: dict
+    scenario: object
+    ctx: object = None
+    ref: object = None
+    failure: str | None = None  # the reference could not be built
+    timings: dict = field(default_factory=lambda: {"context": 0.0, "reference": 0.0, "compute": 0.0})
+    results: list = field(default_factory=list)
+
+
+def run_chunk(chunk: list[tuple], methods: list[str], steps: tuple) -> list[dict]:
+    """Every method of every cell of ``chunk`` at every step (in a worker): one record per cell (see
+    :func:`_record`). Our methods with a batch path run every cell of the chunk in one
+    :func:`~xcheck.integrators.integrate_batch` call per step; the others run cell by cell."""
+    import warnings
+
+    from .reference import ReferenceFailure
+    from .study import run_context, scenario_reference
+    from .trajectory import step_plan, time_grid
+
+    warnings.filterwarnings("ignore", category=UserWarning, module="xcheck.models")
+    cells = [_Cell(cid, params, sc) for cid, params, sc in chunk]
+    grids = [time_grid(step_plan(dt, cells[0].scenario.duration)[0], dt, cells[0].scenario.duration) for dt in steps]
+    for c in cells:
+        t0 = time.perf_counter()
+        c.ctx = run_context(c.scenario)
+        t1 = time.perf_counter()
+        try:
+            c.ref = scenario_reference(c.scenario)
+            for t in grids:  # evaluated once per grid now, so that the runs' times are the runs' own
+                c.ref.at(t)
+        except ReferenceFailure as exc:
+            c.failure = str(exc)
+        c.timings["context"], c.timings["reference"] = t1 - t0, time.perf_counter() - t1
+    live = [c for c in cells if c.failure is None]
+    for method in methods:
+        runner = RUNNERS[method]
+        if runner.run_batch is not None and len(live) > 1:
+            _run_batched(method, live, steps)
+        else:
+            for c in live:
+                _run_single(method, c, steps)
+    return [_record(c, methods, steps) for c in cells]
+
+
+def _run_single(method: str, c: _Cell, steps: tuple) -> None:
+    from .study import _measure_method
+
+    t0 = time.perf_counter()
+    res = _measure_method(c.scenario, method, steps, None, sample=False)
+    c.timings["compute"] += time.perf_counter() - t0
+    c.results.append(res)
+
+
+_WARM_BATCH: set = set()
+
+
+def _run_batched(method: str, cells: list[_Cell], steps: tuple) -> None:
+    """One integrate_batch call per step for all ``cells`` (same model, torque, duration); each run's wall
+    time is the call's divided by the number of cells."""
+    from .integrators import integrate_batch
+    from .results import Run
+    from .study import measure_run
+    from .trajectory import Trajectory
+
+    ctx0 = cells[0].ctx
+    inertia = np.stack([c.ctx.inertia for c in cells])
+    q0 = np.stack([c.ctx.q0 for c in cells])
+    omega0 = np.stack([c.ctx.omega0 for c in cells])
+    kwargs = dict(torque=ctx0.torque, sequence=ctx0.sequence, save="all")
+    if method not in _WARM_BATCH:  # load (or compile) the batch kernel before it is timed
+        _WARM_BATCH.add(method)
+        h = min(steps)
+        integrate_batch(method, inertia[:1], q0[:1], omega0[:1], dt=h, duration=min(ctx0.duration, 2 * h), **kwargs)
+    runs: list[list] = [[] for _ in cells]
+    for dt in steps:
+        t0 = time.perf_counter()
+        try:
+            out = integrate_batch(method, inertia, q0, omega0, dt=dt, duration=ctx0.duration, **kwargs)
+        except ValueError as exc:
+            wall = (time.perf_counter() - t0) / len(cells)
+            for r in runs:
+                r.append(Run.failed(dt, "failed", f"{method}: {exc}", wall))
+            continue
+        wall = (time.perf_counter() - t0) / len(cells)
+        for i, c in enumerate(cells):
+            k = int(out.steps_done[i]) + 1
+            traj = Trajectory(t=out.t[:k], q=out.q[i, :k], omega=out.omega[i, :k], method=method, dt=dt)
+            if out.status[i] != "ok":
+                traj.status = str(out.status[i])
+                traj.message = (f"{method}: the run stopped ({out.status[i]}) at t = {out.t[k - 1]:.6g} s; the "
+                                "trajectory ends at the last good step")
+            t1 = time.perf_counter()
+            runs[i].append(measure_run(method, traj, c.ref, c.ctx, dt, wall))
+            c.timings["compute"] += wall + (time.perf_counter() - t1)
+    for c, r in zip(cells, runs):
+        c.results.append({"method": method, "runs": r, "series": None, "comparisons": [], "batched": True})
+
+
+def _record(c: _Cell, methods: list[str], steps: tuple) -> dict:
+    """A cell's record: its parameters, every method's result (schema ``xcheck.convergence/1``'s method
+    entries), the checks, whether it passed, and where its time went."""
+    from .results import Run
+    from .study import assemble
+
+    if c.failure is not None:
+        c.results = [{"method": m, "runs": [Run.failed(dt, "failed", f"no reference: {c.failure}", 0.0)
+                                            for dt in steps], "series": None, "reference_error": c.failure}
+                     for m in methods]
+    st = assemble(c.scenario, list(steps), c.results, quick=True)
+    return {"id": c.id, "params": c.params, "passed": st.passed, "order_floor": st.order_floor,
+            "methods": {n: m.to_json() for n, m in st.methods.items()},
+            "batched": sorted(r["method"] for r in c.results if r.get("batched")),
+            "checks": [ch.to_json() for ch in st.checks],
+            "timings": {k: round(v, 6) for k, v in c.timings.items()}}
+
+
+# ------------------------------------------------------------------------------------------------------
+# executors: this process, a pool of processes, or a Dask cluster, behind one small interface
+# ------------------------------------------------------------------------------------------------------
+class _Deferred:
+    """A task of the in-process executor, run when its result is asked for (so that the log and the progress
+    bar follow each chunk, as with the other executors)."""
+
+    def __init__(self, fn, args):
+        self.fn, self.args, self._done, self._value = fn, args, False, None
+
+    def result(self):
+        if not self._done:
+            self._value, self._done = self.fn(*self.args), True
+        return self._value
+
+
+class _InProcess:
+    name = "this process"
+
+    def submit(self, fn, *args):
+        return _Deferred(fn, args)
+
+    @staticmethod
+    def as_completed(futures):
+        for f in futures:
+            f.result()
+            yield f
+
+
+class _Pool:
+    def __init__(self, pool, jobs):
+        self.pool, self.name = pool, f"{jobs} worker processes"
+
+    def submit(self, fn, *args):
+        return self.pool.submit(fn, *args)
+
+    @staticmethod
+    def as_completed(futures):
+        from concurrent.futures import as_completed
+
+        return as_completed(futures)
+
+
+class _Dask:
+    def __init__(self, client, name):
+        self.client, self.name = client, name
+
+    def submit(self, fn, *args):
+        return self.client.submit(fn, *args, pure=False)
+
+    @staticmethod
+    def as_completed(futures):
+        from distributed import as_completed
+
+        return as_completed(futures)
+
+
+#: What a sweep's workers import as they start.
+WORKER_MODULES = ("xcheck.sweep_run", "xcheck.study", "xcheck.engines.mujoco")
+
+
+@contextmanager
+def executor(kind: str = "local", jobs: int = 1, scheduler: str | None = None):
+    """``local`` with ``jobs`` 1: this process; ``jobs`` > 1: spawned worker processes (:mod:`xcheck.pool`).
+    ``dask``: a Dask distributed cluster at ``scheduler``, or a ``LocalCluster`` of ``jobs`` single-threaded
+    worker processes (MuJoCo's control callback is process-global: one task per process at a time)."""
+    if kind == "local":
+        if jobs == 1:
+            yield _InProcess()
+            return
+        from .pool import worker_pool
+
+        with worker_pool(jobs, warm=WORKER_MODULES) as pool:
+            yield _Pool(pool, jobs)
+        return
+    try:
+        import logging
+
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise SweepError("--executor dask needs Dask's distributed package: pip install 'xcheck[distributed]'") from None
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout=30)
+        except (OSError, TimeoutError) as exc:
+            raise SweepError(f"--scheduler {scheduler}: cannot connect to a Dask scheduler there ({exc})") from None
+        with client:
+            yield _Dask(client, f"the Dask cluster at {scheduler}")
+        return
+    with LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        yield _Dask(client, f"a Dask LocalCluster of {jobs} workers")
+
+
+# ------------------------------------------------------------------------------------------------------
+# the tidy table
+# ------------------------------------------------------------------------------------------------------
+RUN_COLUMNS = ("dt", "status", "attitude_error", "max_attitude_error", "omega_error", "max_omega_error",
+               "energy_drift", "momentum_drift", "norm_drift", "wall_time", "steps_per_second")
+_COMPONENTS = {"attitude": ("w", "x", "y", "z"), "inertia": ("1", "2", "3")}
+
+
+def flat_params(params: dict) -> dict:
+    """A cell's parameters as scalar columns: a vector axis gives one column per component (``rate_x``,
+    ``attitude_w``, ``inertia_1``) and a summary (:func:`xcheck.sweep.axis_summary`), a model its file name."""
+    from .sweep import axis_summary
+
+    out = {}
+    for name, value in params.items():
+        if isinstance(value, list):
+            for comp, v in zip(_COMPONENTS.get(name, ("x", "y", "z")), value):
+                out[f"{name}_{comp}"] = v
+            label, summary = axis_summary(name, value)
+            out[label] = summary
+        elif name == "model":
+            out[name] = Path(value).name
+        else:
+            out[name] = value
+    return out
+
+
+def tidy_rows(spec: SweepSpec, records: dict[str, dict]) -> list[dict]:
+    """One row per cell x method x step, cells in the spec's order: the cell's flat parameters, the method's
+    expected and observed order and verdict, and the run's metrics."""
+    rows = []
+    for cell in spec.cells:
+        rec = records[cell["id"]]
+        params = flat_params(cell["params"])
+        for name, m in rec["methods"].items():
+            for r in m["runs"]:
+                rows.append({"cell": cell["id"], **params, "method": name, "engine": m["engine"],
+                             "expected_order": m["expected_order"], "observed_order": m["observed_order"],
+                             "verdict": m["verdict"], **{k: r.get(k) for k in RUN_COLUMNS},
+                             "message": r.get("message", "")})
+    return rows
+
+
+def csv_text(rows: list[dict]) -> str:
+    """The rows as CSV (17 significant digits; None an empty field)."""
+    import csv
+    import io
+
+    columns = list(dict.fromkeys(k for r in rows for k in r))
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(columns)
+    for r in rows:
+        w.writerow(["" if r.get(c) is None else (format(r[c], ".17g") if isinstance(r[c], float) else r[c])
+                    for c in columns])
+    return buf.getvalue()
+
+
+def finite_or_none(v):
+    return None if v is None or (isinstance(v, float) and not math.isfinite(v)) else v
+
+
+# ------------------------------------------------------------------------------------------------------
+# the sweep
+# ------------------------------------------------------------------------------------------------------
+@dataclass
+class SweepOutcome:
+    """What :func:`run_sweep` did: the folder written, every cell's record (spec order), how many cells ran
+    now and how many came from an earlier run (``--resume``), and the timings (``timings``: executor start
+    [s], per-cell medians [s] of context (model load, torque), reference and compute, and cells per second)."""
+
+    folder: Path
+    records: list
+    ran: int
+    reused: int
+    wall_time: float
+    timings: dict
+
+
+#: The log of an unfinished sweep, in the sweep's folder (``<out>/<spec stem>/``).
+PARTIAL_LOG = ".cells-partial.jsonl"
+
+
+def run_sweep(spec: SweepSpec, out_root, *, jobs: int = 1, resume: bool = False, kind: str = "local",
+              scheduler: str | None = None, progress=None, say=print) -> SweepOutcome:
+    """Run every cell of ``spec`` not yet finished and write the sweep's folder under ``out_root/<spec stem>/``
+    (:func:`xcheck.report.sweep.write_sweep`). ``resume``: keep the cells of an interrupted run (its log), or
+    of the latest complete one (``latest/cells.jsonl``: a spec given more values runs only the new cells).
+    ``progress(done, total, label)`` as chunks finish; ``say(text)`` for notes."""
+    from .report.sweep import write_sweep
+
+    t_start = time.perf_counter()
+    root = Path(out_root) / spec.path.stem
+    root.mkdir(parents=True, exist_ok=True)
+    log = SweepLog(root / PARTIAL_LOG, fingerprint(spec))
+    if resume:
+        source = next((p for p in (log.path, root / "latest" / "cells.jsonl") if p.is_file()), None)
+        if source is None:
+            say(f"--resume: no earlier run of this sweep in {root}; running every cell")
+        else:
+            log.read(source)
+    elif log.path.exists():
+        say(f"note: an interrupted run left {log.path}; starting over (--resume keeps its finished cells)")
+    wanted = {c["id"] for c in spec.cells}
+    log.records = {k: v for k, v in log.records.items() if k in wanted}
+    reused = len(log.records)
+    todo = [c for c in spec.cells if c["id"] not in log.records]
+    if resume and log.records:
+        say(f"--resume: {reused} of {len(spec.cells)} cells already done; running {len(todo)}")
+    log.start()
+    chunks = plan_chunks(spec, todo)
+    methods = sweep_methods(spec)
+    t_ready = t_end = time.perf_counter()
+    if chunks:
+        with executor(kind, jobs, scheduler) as ex:
+            t_ready = time.perf_counter()
+            futures = [ex.submit(run_chunk, ch, methods, tuple(spec.steps)) for ch in chunks]
+            done = 0
+            for fut in ex.as_completed(futures):
+                records = fut.result()
+                log.append(records)
+                done += len(records)
+                if progress:
+                    progress(done, len(todo), f"{done} of {len(todo)} cells")
+            t_end = time.perf_counter()
+    fresh = [log.records[c["id"]] for c in todo]
+    timings = {"executor_start": t_ready - t_start, "cells_per_second": len(todo) / (t_end - t_ready) if todo else None,
+               **{k: float(np.median([r["timings"][k] for r in fresh])) if fresh else None
+                  for k in ("context", "reference", "compute")}}
+    records = [log.records[c["id"]] for c in spec.cells]
+    folder = write_sweep(spec, records, root, methods=methods, timings=timings, ran=len(todo), reused=reused,
+                         wall_time=time.perf_counter() - t_start, log=log.path)
+    log.path.unlink(missing_ok=True)
+    return SweepOutcome(folder=folder, records=records, ran=len(todo), reused=reused,
+                        wall_time=time.perf_counter() - t_start, timings=timings)
