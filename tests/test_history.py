@@ -55,6 +55,26 @@ def test_schema_version_and_application_are_written(tmp_path, report):
         "application": "xcheck.history", "schema_version": str(H.SCHEMA_VERSION)}
 
 
+def test_a_schema_1_history_is_upgraded_in_place(tmp_path, report):
+    """A history written before sweeps (schema 1: no sweep_cells) keeps its runs and becomes schema 2 when
+    next written; a read-only check leaves it at 1."""
+    path = tmp_path / "h.sqlite"
+    with H.open_history(path) as hist:
+        _record(hist, report[0])
+    con = sqlite3.connect(path)
+    con.executescript("DROP TABLE sweep_cells; UPDATE xcheck_meta SET value = '1' WHERE key = 'schema_version';")
+    con.close()
+    with H.open_history(path, read_only=True) as hist:
+        assert len(hist.runs()) == 1
+    assert sqlite3.connect(path).execute("SELECT value FROM xcheck_meta WHERE key = 'schema_version'").fetchone() == ("1",)
+    with H.open_history(path) as hist:
+        _record(hist, report[0], n=1)
+        assert len(hist.runs()) == 2
+    con = sqlite3.connect(path)
+    assert con.execute("SELECT value FROM xcheck_meta WHERE key = 'schema_version'").fetchone() == ("2",)
+    assert con.execute("SELECT COUNT(*) FROM sweep_cells").fetchone() == (0,)
+
+
 @pytest.mark.parametrize("make, words", [
     (lambda p: p.write_bytes(b"this is not a database at all, just some bytes " * 100), "not an xcheck history"),
     (lambda p: sqlite3.connect(p).execute("CREATE TABLE invoices (id INTEGER)").connection.commit(),

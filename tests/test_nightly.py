@@ -87,8 +87,8 @@ def test_two_runs_then_an_injected_regression_exits_1_and_names_it(tmp_path):
     (lambda p: sqlite3.connect(p).execute("CREATE TABLE invoices (id INTEGER)").connection.commit(),
      "not an xcheck history (no xcheck_meta table; it has invoices)"),
     (lambda p: (H.open_history(p).close(), sqlite3.connect(p).execute(
-        "UPDATE xcheck_meta SET value = '2' WHERE key = 'schema_version'").connection.commit()),
-     "written by a newer xcheck (history schema 2"),
+        f"UPDATE xcheck_meta SET value = '{H.SCHEMA_VERSION + 1}' WHERE key = 'schema_version'").connection.commit()),
+     f"written by a newer xcheck (history schema {H.SCHEMA_VERSION + 1}"),
 ])
 def test_a_bad_history_exits_2_before_any_work_and_is_left_untouched(tmp_path, make, words):
     history = tmp_path / "h.sqlite"

@@ -88,16 +88,16 @@ def test_random_attitudes_are_uniform_on_so3():
 
 
 @pytest.mark.parametrize("text, words", [
-    ('base = "rax1-orbit-field"\n[axes.spin_rate]\nvalues = [1.0]', "[axes] spin_rate: unknown axis"),
+    ('base = "rax1-orbit-field"\n[axes.spin_rate]\nvalues = [1.0]', "[axes.spin_rate] unknown axis"),
     ('base = "rax1-orbit-field"\ncolour = "red"\n[axes.dipole_scale]\nvalues = [1.0]', "colour: unknown key"),
     ('base = "rax1-orbit-field"\n[axes.dipole_scale]\nvalues = []', "[axes.dipole_scale] values: an empty list"),
     ('base = "rax1-orbit-field"\n[axes.dipole_scale]\nrange = [2.0, 2.0]\nnum = 3',
      "[axes.dipole_scale] range: expected [low, high] with low < high"),
     ('base = "rax1-orbit-field"\n[axes.dipole]\nrange = [0.0, 1.0]\nnum = 3', "[axes.dipole] range: a range needs"),
     ('base = "gyroscope-nonsingular"\n[axes.dipole_scale]\nvalues = [1.0]',
-     "[axes] dipole_scale: the base scenario gyroscope-nonsingular has no magnetic torque"),
+     "[axes.dipole_scale] the base scenario gyroscope-nonsingular has no magnetic torque"),
     ('base = "rax1-orbit-field"\n[axes."field.colour"]\nvalues = [1.0]',
-     "[axes] field.colour: the base's field model 'orbit-dipole' has no key 'colour'"),
+     "[axes.field.colour] the base's field model 'orbit-dipole' has no key 'colour'"),
     ('base = "no-such-scenario"\n[axes.dt]\nvalues = [0.1]', "base: the base scenario cannot be used"),
     ('base = "rax1-orbit-field"\n[axes.attitude]\nvalues = [[1.0, 0.1, 0.0, 0.0]]',
      "[axes.attitude] values: expected unit quaternions"),

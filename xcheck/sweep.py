@@ -53,7 +53,7 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-__all__ = ["SweepError", "SweepSpec", "Axis", "load_sweep", "apply_cell", "AXES", "random_quaternions",
+__all__ = ["SweepError", "SweepSpec", "Axis", "load_sweep", "apply_cell", "flat_params", "AXES", "random_quaternions",
            "random_directions"]
 
 
@@ -248,7 +248,7 @@ def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int) 
     from .models import ModelError, load_body
 
     def refuse(message):
-        raise SweepError(f"{path}: [axes] {axis.name}: {message}")
+        raise SweepError(f"{path}: [axes.{axis.name}] {message}")
 
     if axis.name in ("rate_scale", "rate_direction") and not np.any(base.omega0):
         refuse(f"the base scenario {base.name} starts at rest: there is no rate to scale or turn")
@@ -299,7 +299,7 @@ SUMMARIES = {
     "rate_deg": ("rate_deg_norm", "|ω0| [deg/s]"),
     "rate_direction": ("rate_tilt_deg", "angle between ω0 and the body z axis [deg]"),
     "dipole": ("dipole_norm", "|m| [A m²]"),
-    "inertia": ("inertia_ratio", "largest / smallest principal moment"),
+    "inertia": ("inertia_ratio", "I₃ / I₁, third over first principal moment"),
 }
 
 
@@ -311,8 +311,28 @@ def axis_summary(name: str, value) -> tuple[str, float]:
     if name == "rate_direction":
         return SUMMARIES[name][0], float(np.degrees(np.arccos(np.clip(v[2] / np.linalg.norm(v), -1, 1))))
     if name == "inertia":
-        return SUMMARIES[name][0], float(v.max() / v.min())
+        return SUMMARIES[name][0], float(v[2] / v[0])
     return SUMMARIES[name][0], float(np.linalg.norm(v))
+
+
+_COMPONENTS = {"attitude": ("w", "x", "y", "z"), "inertia": ("1", "2", "3")}
+
+
+def flat_params(params: dict) -> dict:
+    """A cell's parameters as scalar columns: a vector axis gives one column per component (``rate_x``,
+    ``attitude_w``, ``inertia_1``) and a summary (:func:`xcheck.sweep.axis_summary`), a model its file name."""
+    out = {}
+    for name, value in params.items():
+        if isinstance(value, list):
+            for comp, v in zip(_COMPONENTS.get(name, ("x", "y", "z")), value):
+                out[f"{name}_{comp}"] = v
+            label, summary = axis_summary(name, value)
+            out[label] = summary
+        elif name == "model":
+            out[name] = Path(value).name
+        else:
+            out[name] = value
+    return out
 
 
 def _cell(params: dict) -> dict:
@@ -372,7 +392,7 @@ def _read_axis(path: Path, name: str, table, base: Scenario, combine: str) -> Ax
     from .fields import FIELDS
 
     def refuse(message):
-        raise SweepError(f"{path}: [axes] {name}: {message}")
+        raise SweepError(f"{path}: [axes.{name}] {message}")
 
     if not isinstance(table, dict):
         refuse("expected a table (values = [...], or range = [low, high], ...)")

@@ -30,13 +30,14 @@ import numpy as np
 from .runners import RUNNERS
 from .sweep import SweepError, SweepSpec, apply_cell
 
-__all__ = ["SweepLog", "plan_chunks", "run_chunk", "sweep_methods", "fingerprint", "executor", "CHUNK",
-           "LOG_SCHEMA", "flat_params"]
+__all__ = ["SweepLog", "plan_chunks", "run_chunk", "run_sweep", "sweep_methods", "fingerprint", "executor", "CHUNK",
+           "LOG_SCHEMA"]
 
 LOG_SCHEMA = "xcheck.sweep-log/1"
-#: Cells per task: enough to amortise a task's overhead and fill a batch, few enough that an interrupted
-#: sweep loses little and two workers share the work evenly.
+#: Cells per task, at most: enough to amortise a task's overhead and fill a batch, few enough that an interrupted
+#: sweep loses little; a small sweep is cut finer (at least :data:`MIN_TASKS` tasks) so that every worker has work.
 CHUNK = 10
+MIN_TASKS = 4
 
 
 def sweep_methods(spec: SweepSpec) -> list[str]:
@@ -117,14 +118,15 @@ def _batch_key(sc) -> str:
 
 def plan_chunks(spec: SweepSpec, cells: list[dict]) -> list[list[tuple]]:
     """``cells`` (``{"id", "params"}``) as chunks of ``(id, params, scenario)``: grouped by batch key (in the
-    order of first appearance), then cut into :data:`CHUNK` cells. Independent of the executor and the number
-    of workers, so that every executor computes the same batches."""
+    order of first appearance), then cut into chunks of at most :data:`CHUNK` cells. Independent of the
+    executor and the number of workers, so that every executor computes the same batches."""
     groups: dict[str, list] = {}
     for cell in cells:
         sc = apply_cell(spec.base, cell["params"])
         sc.name = spec.base.name
         groups.setdefault(_batch_key(sc), []).append((cell["id"], cell["params"], sc))
-    return [g[i:i + CHUNK] for g in groups.values() for i in range(0, len(g), CHUNK)]
+    size = max(1, min(CHUNK, math.ceil(len(cells) / MIN_TASKS)))
+    return [g[i:i + size] for g in groups.values() for i in range(0, len(g), size)]
 
 
 # ------------------------------------------------------------------------------------------------------
@@ -331,6 +333,7 @@ def executor(kind: str = "local", jobs: int = 1, scheduler: str | None = None):
     except ImportError:
         raise SweepError("--executor dask needs Dask's distributed package: pip install 'xcheck[distributed]'") from None
     if scheduler:
+        _reachable(scheduler)
         try:
             client = Client(scheduler, timeout=30)
         except (OSError, TimeoutError) as exc:
@@ -343,66 +346,24 @@ def executor(kind: str = "local", jobs: int = 1, scheduler: str | None = None):
         yield _Dask(client, f"a Dask LocalCluster of {jobs} workers")
 
 
-# ------------------------------------------------------------------------------------------------------
-# the tidy table
-# ------------------------------------------------------------------------------------------------------
-RUN_COLUMNS = ("dt", "status", "attitude_error", "max_attitude_error", "omega_error", "max_omega_error",
-               "energy_drift", "momentum_drift", "norm_drift", "wall_time", "steps_per_second")
-_COMPONENTS = {"attitude": ("w", "x", "y", "z"), "inertia": ("1", "2", "3")}
+def _reachable(address: str) -> None:
+    """Refuse at once a ``tcp://host:port`` scheduler address nothing listens on (Dask's client would retry
+    for its whole timeout)."""
+    import socket
+    from urllib.parse import urlsplit
 
-
-def flat_params(params: dict) -> dict:
-    """A cell's parameters as scalar columns: a vector axis gives one column per component (``rate_x``,
-    ``attitude_w``, ``inertia_1``) and a summary (:func:`xcheck.sweep.axis_summary`), a model its file name."""
-    from .sweep import axis_summary
-
-    out = {}
-    for name, value in params.items():
-        if isinstance(value, list):
-            for comp, v in zip(_COMPONENTS.get(name, ("x", "y", "z")), value):
-                out[f"{name}_{comp}"] = v
-            label, summary = axis_summary(name, value)
-            out[label] = summary
-        elif name == "model":
-            out[name] = Path(value).name
-        else:
-            out[name] = value
-    return out
-
-
-def tidy_rows(spec: SweepSpec, records: dict[str, dict]) -> list[dict]:
-    """One row per cell x method x step, cells in the spec's order: the cell's flat parameters, the method's
-    expected and observed order and verdict, and the run's metrics."""
-    rows = []
-    for cell in spec.cells:
-        rec = records[cell["id"]]
-        params = flat_params(cell["params"])
-        for name, m in rec["methods"].items():
-            for r in m["runs"]:
-                rows.append({"cell": cell["id"], **params, "method": name, "engine": m["engine"],
-                             "expected_order": m["expected_order"], "observed_order": m["observed_order"],
-                             "verdict": m["verdict"], **{k: r.get(k) for k in RUN_COLUMNS},
-                             "message": r.get("message", "")})
-    return rows
-
-
-def csv_text(rows: list[dict]) -> str:
-    """The rows as CSV (17 significant digits; None an empty field)."""
-    import csv
-    import io
-
-    columns = list(dict.fromkeys(k for r in rows for k in r))
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(columns)
-    for r in rows:
-        w.writerow(["" if r.get(c) is None else (format(r[c], ".17g") if isinstance(r[c], float) else r[c])
-                    for c in columns])
-    return buf.getvalue()
-
-
-def finite_or_none(v):
-    return None if v is None or (isinstance(v, float) and not math.isfinite(v)) else v
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host = port = None
+    if parts.scheme not in ("tcp", "tls") or not host or not port:
+        raise SweepError(f"--scheduler {address}: expected a Dask scheduler address, tcp://host:port")
+    if parts.scheme == "tcp":
+        try:
+            socket.create_connection((host, port), timeout=10).close()
+        except OSError as exc:
+            raise SweepError(f"--scheduler {address}: no Dask scheduler answers there ({exc.strerror or exc})") from None
 
 
 # ------------------------------------------------------------------------------------------------------

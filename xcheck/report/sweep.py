@@ -17,25 +17,26 @@ from pathlib import Path
 import numpy as np
 
 from ..runners import RUNNERS
-from ..sweep import AXES, SUMMARIES, SweepSpec
+from ..sweep import AXES, SUMMARIES, SweepSpec, flat_params
 from ..versions import machine, versions
 from .document import Cell, Figure, Heading, Para, Table, Verdict, step_label, to_html, to_markdown
 from .io import write_bytes_atomic, write_json_atomic, write_text_atomic
 
-__all__ = ["write_sweep", "sweep_figures", "SWEEP_SCHEMA", "ACCURACY"]
+__all__ = ["write_sweep", "sweep_figures", "tidy_rows", "csv_text", "SWEEP_SCHEMA", "ACCURACY"]
 
 SWEEP_SCHEMA = "xcheck.sweep/1"
 #: The accuracy map's contour [rad]: the largest attitude error over a run that a user asks for.
 ACCURACY = 1e-6
 #: Attitude errors below this are drawn at it (a log axis has no zero).
 _FLOOR = 1e-17
+#: One marker per method (drawn hollow: points of methods that agree stay visible on top of each other).
+_MARKERS = "os^Dv<>pPXh*"
 
 
 def write_sweep(spec: SweepSpec, records: list, root: Path, *, methods, timings: dict, ran: int, reused: int,
                 wall_time: float, log: Path) -> Path:
     """Write the folder of a finished sweep under ``root`` (see the module docstring); returns it."""
     from ..history import History, utc_now
-    from ..sweep_run import csv_text, flat_params, tidy_rows
     from .render import _finish_despite_interrupts, _INCOMPLETE, _owner, _point_latest, _rename_into_place, \
         remove_stale
 
@@ -87,6 +88,43 @@ def _summary(spec, records, methods, timings, ran, reused, wall_time) -> dict:
 
 
 # ------------------------------------------------------------------------------------------------------
+# the tidy table
+# ------------------------------------------------------------------------------------------------------
+RUN_COLUMNS = ("dt", "status", "attitude_error", "max_attitude_error", "omega_error", "max_omega_error",
+               "energy_drift", "momentum_drift", "norm_drift", "wall_time", "steps_per_second")
+def tidy_rows(spec: SweepSpec, records: dict[str, dict]) -> list[dict]:
+    """One row per cell x method x step, cells in the spec's order: the cell's flat parameters, the method's
+    expected and observed order and verdict, and the run's metrics."""
+    rows = []
+    for cell in spec.cells:
+        rec = records[cell["id"]]
+        params = flat_params(cell["params"])
+        for name, m in rec["methods"].items():
+            for r in m["runs"]:
+                rows.append({"cell": cell["id"], **params, "method": name, "engine": m["engine"],
+                             "expected_order": m["expected_order"], "observed_order": m["observed_order"],
+                             "verdict": m["verdict"], **{k: r.get(k) for k in RUN_COLUMNS},
+                             "message": r.get("message", "")})
+    return rows
+
+
+def csv_text(rows: list[dict]) -> str:
+    """The rows as CSV (17 significant digits; None an empty field)."""
+    import csv
+    import io
+
+    columns = list(dict.fromkeys(k for r in rows for k in r))
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(columns)
+    for r in rows:
+        w.writerow(["" if r.get(c) is None else (format(r[c], ".17g") if isinstance(r[c], float) else r[c])
+                    for c in columns])
+    return buf.getvalue()
+
+
+
+# ------------------------------------------------------------------------------------------------------
 # figures
 # ------------------------------------------------------------------------------------------------------
 def _axis_column(axis) -> tuple[str, str, bool]:
@@ -99,16 +137,10 @@ def _axis_column(axis) -> tuple[str, str, bool]:
     return axis.name, label, False
 
 
-def _finest(rows) -> dict:
-    """{(cell, method): the row of the method's finest good run in the cell}."""
-    out = {}
-    for r in rows:
-        if r["status"] != "ok" or r["attitude_error"] is None:
-            continue
-        key = (r["cell"], r["method"])
-        if key not in out or r["dt"] < out[key]["dt"]:
-            out[key] = r
-    return out
+def _at_step(rows, dt) -> dict:
+    """{(cell, method): the row of the method's good run at the step ``dt`` in the cell}."""
+    return {(r["cell"], r["method"]): r for r in rows
+            if r["dt"] == dt and r["status"] == "ok" and r["attitude_error"] is not None}
 
 
 def sweep_figures(spec: SweepSpec, rows: list, methods) -> list[tuple[str, str, bytes]]:
@@ -126,9 +158,11 @@ def sweep_figures(spec: SweepSpec, rows: list, methods) -> list[tuple[str, str, 
         warnings.simplefilter("ignore")
         if spec.axes:
             figs.append(_png(_error_by_axis(spec, rows, methods, colors), f"{stem}-error-by-axis.png",
-                             "Attitude error at the final time, at each method's finest step, against each swept "
-                             "axis (one point per cell and method; a model or field model axis shows its values "
-                             "side by side, spread sideways so that points do not hide each other)."))
+                             f"Attitude error at the final time at the sweep's largest step, Δt = "
+                             f"{step_label(max(spec.steps))} s (where the methods' own errors stand above round-off), "
+                             "against each swept axis: one point per cell and method; a model or field model axis "
+                             "shows its values side by side, spread sideways so that points do not hide each other. "
+                             "A method missing from a cell failed there (see the table)."))
         mj = [m for m in methods if RUNNERS[m].engine == "mujoco"]
         numeric = [a for a in spec.axes if not _axis_column(a)[2]]
         if mj and numeric and len(spec.steps) > 1:
@@ -153,7 +187,7 @@ def _log_if_wide(ax, values, axis="x"):
 def _error_by_axis(spec, rows, methods, colors):
     from .plots import _subplots
 
-    finest = _finest(rows)
+    finest = _at_step(rows, max(spec.steps))
     n = len(spec.axes)
     ncols = 1 if n == 1 else 2
     nrows = math.ceil(n / ncols)
@@ -172,8 +206,8 @@ def _error_by_axis(spec, rows, methods, colors):
             if categorical:
                 offset = (k - (len(methods) - 1) / 2) * 0.6 / max(len(methods), 1)
                 x = np.array([cats.index(v) for v in x]) + offset + rng.uniform(-0.02, 0.02, len(x))
-            ax.scatter(x, np.maximum(y, _FLOOR), s=12, color=colors[m], alpha=0.7, label=m,
-                       marker="o" if RUNNERS[m].engine == "xcheck" else "s", edgecolors="none")
+            ax.scatter(x, np.maximum(y, _FLOOR), s=18, facecolors="none", edgecolors=colors[m], alpha=0.8, label=m,
+                       marker=_MARKERS[k % len(_MARKERS)], linewidths=1.0)
         ax.set_yscale("log")
         if categorical:
             ax.set_xticks(range(len(cats)))
@@ -187,7 +221,7 @@ def _error_by_axis(spec, rows, methods, colors):
     handles, labels = axes.flat[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 1 - 0.3 / height), ncol=min(len(labels), 6),
                fontsize=8, frameon=False, markerscale=1.5)
-    fig.suptitle(f"{spec.path.stem}: error against the swept axes (finest step of each method)", fontsize=10)
+    fig.suptitle(f"{spec.path.stem}: error against the swept axes at Δt = {step_label(max(spec.steps))} s", fontsize=10)
     return fig
 
 
@@ -247,7 +281,7 @@ def _accuracy_maps(spec, rows, mj_methods, axis):
         if lo < ACCURACY < hi and Z.shape[1] > 1:
             xc = 0.5 * (xe[:-1] + xe[1:]) if not binned else np.sqrt(xe[:-1] * xe[1:]) if log_x else 0.5 * (xe[:-1] + xe[1:])
             cs = ax.contour(xc, np.arange(len(steps)), np.log10(np.where(np.isnan(Z), vmax, Z)),
-                            levels=[math.log10(ACCURACY)], colors="white", linewidths=2)
+                            levels=[math.log10(ACCURACY)], colors="white", linewidths=2, linestyles="solid")
             ax.clabel(cs, fmt={math.log10(ACCURACY): f"{ACCURACY:g} rad"}, fontsize=8)
         elif np.isfinite(lo):
             word = "every run within" if hi <= ACCURACY else "every run above" if lo >= ACCURACY else ""
@@ -283,8 +317,8 @@ def _work_precision(rows, methods, colors):
                if r["method"] == m and r["status"] == "ok" and r["attitude_error"] is not None and r["wall_time"]]
         if pts:
             x, y = zip(*pts)
-            ax.scatter(x, np.maximum(y, _FLOOR), s=8, alpha=0.45, color=colors[m], label=m, edgecolors="none",
-                       marker="o" if RUNNERS[m].engine == "xcheck" else "s")
+            ax.scatter(x, np.maximum(y, _FLOOR), s=14, alpha=0.6, facecolors="none", edgecolors=colors[m], label=m,
+                       marker=_MARKERS[methods.index(m) % len(_MARKERS)], linewidths=0.8)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("wall time of a run [s]")
@@ -372,8 +406,6 @@ def _method_table(records, methods) -> Table:
 
 
 def _failing_table(records) -> Table:
-    from ..sweep_run import flat_params
-
     rows = []
     for r in records:
         params = ", ".join(f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}"
