@@ -6,7 +6,10 @@ Rows come from the runner registry (:data:`xcheck.runners.RUNNERS`): every runne
 every stage), for ``duration`` s at dt = 1/1024 s, through the same ``runner.run(context, dt)`` a study
 calls; a runner with a batch path (``run_batch``) also on 10 000 perturbed gyroscopes at once, 100 steps each
 (body-steps per second). An engine module may add rows of its own (``bench_extras``: MuJoCo's bare
-``mj_step`` loop). ``--json PATH`` writes ``{"schema": "xcheck.bench/1", "versions": ..., "results": [...]}``
+``mj_step`` loop). Sweep cells per second (``xcheck sweep``'s unit of work, rows with ``cells_per_second``):
+a chunk of 10 torque-free gyroscope cells from random attitudes, one step dt = 1/1024 s, each a whole cell
+(model, exact reference, run, errors), ``lie-rkmk4`` batched and ``mujoco-rk4`` one cell at a time.
+``--json PATH`` writes ``{"schema": "xcheck.bench/1", "versions": ..., "results": [...]}``
 with rows ``{engine, method, scenario, batch, steps_per_second}``. For an adaptive method (``scipy-rk45``) a
 "step" is a point of the output grid: the figure is how fast it delivers the same trajectory.
 
@@ -75,6 +78,14 @@ def run_bench(*, repeat: int = 3, batch: int = 10_000, quick: bool = False, meth
         runner.run_batch(dataclasses.replace(gyro, duration=0.02), Q[:2], W[:2], 0.01)
         add(runner.engine, runner.name, "gyroscope-nonsingular", batch,
             _best(lambda: runner.run_batch(gyro, Q, W, 0.01), repeat), 100)
+    for name in ("lie-rkmk4", "mujoco-rk4"):
+        if any(r.name == name for r in runners):
+            cells, seconds = _sweep_cells(name, duration, repeat)
+            rows.append({"engine": RUNNERS[name].engine, "method": f"{name} (sweep cells)",
+                         "scenario": "gyroscope-nonsingular", "batch": cells, "steps_per_second": cells * nsteps / seconds,
+                         "cells_per_second": cells / seconds})
+            if progress:
+                progress(rows[-1])
     for engine in ENGINES.values():
         if not any(r.engine == engine.name for r in runners):
             continue
@@ -84,11 +95,32 @@ def run_bench(*, repeat: int = 3, batch: int = 10_000, quick: bool = False, meth
     return rows
 
 
+def _sweep_cells(method: str, duration: float, repeat: int, cells: int = 10) -> tuple[int, float]:
+    """(cells, best seconds) of :func:`xcheck.sweep_run.run_chunk` on ``cells`` torque-free gyroscope cells at
+    one step; the per-process caches of contexts and references are cleared before each timing, so that every
+    cell pays for its model and reference as in a sweep."""
+    from . import study
+    from .scenario import resolve_scenario
+    from .sweep import apply_cell, random_quaternions
+    from .sweep_run import run_chunk
+
+    base = dataclasses.replace(resolve_scenario("gyroscope-nonsingular"), duration=duration)
+    q = random_quaternions(cells, np.random.default_rng(0))
+    chunk = [(str(i), {}, apply_cell(base, {"attitude": q[i].tolist()})) for i in range(cells)]
+    run_chunk(chunk[:2], [method], (DT,))  # compile and load outside the timing
+
+    def once():
+        study._CACHE.clear()
+        run_chunk(chunk, [method], (DT,))
+    return cells, _best(once, repeat)
+
+
 def format_rows(rows) -> str:
     lines = [f"{'engine':8s} {'method':28s} {'scenario':24s} {'batch':>6s} {'steps/s':>10s}"]
     for r in rows:
+        cells = f"  ({r['cells_per_second']:.1f} cells/s)" if "cells_per_second" in r else ""
         lines.append(f"{r['engine']:8s} {r['method']:28s} {r['scenario']:24s} {r['batch']:6d} "
-                     f"{r['steps_per_second']:10.3g}")
+                     f"{r['steps_per_second']:10.3g}{cells}")
     return "\n".join(lines)
 
 

@@ -109,7 +109,7 @@ def tidy_rows(spec: SweepSpec, records: dict[str, dict]) -> list[dict]:
 
 
 def csv_text(rows: list[dict]) -> str:
-    """The rows as CSV (17 significant digits; None an empty field)."""
+    """The rows as CSV (floats in their shortest form that reads back exactly; None an empty field)."""
     import csv
     import io
 
@@ -118,7 +118,7 @@ def csv_text(rows: list[dict]) -> str:
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(columns)
     for r in rows:
-        w.writerow(["" if r.get(c) is None else (format(r[c], ".17g") if isinstance(r[c], float) else r[c])
+        w.writerow(["" if r.get(c) is None else (repr(r[c]) if isinstance(r[c], float) else r[c])
                     for c in columns])
     return buf.getvalue()
 
