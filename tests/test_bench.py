@@ -14,8 +14,12 @@ def test_rows_follow_the_runner_registry():
     rows = run_bench(quick=True, repeat=1, batch=16, methods=methods)
     single = {(r["method"], r["scenario"]) for r in rows if r["batch"] == 1}
     assert {(m, s) for m in methods for s in BENCH_SCENARIOS} <= single
-    batched = {r["method"] for r in rows if r["batch"] > 1}
+    batched = {r["method"] for r in rows if r["batch"] > 1 and "cells_per_second" not in r}
     assert batched == {m for m in methods if RUNNERS[m].run_batch is not None} == {"lie-cf4"}
+    # a sweep's unit of work, for the sweep methods asked for: 10 cells, each a whole cross-check at one step
+    (cells,) = [r for r in rows if "cells_per_second" in r]
+    assert cells["method"] == "mujoco-rk4 (sweep cells)" and cells["batch"] == 10
+    assert math.isfinite(cells["cells_per_second"]) and cells["cells_per_second"] > 0
     assert ("mujoco-rk4 (mj_step loop)", "gyroscope-nonsingular") in single  # the engine's own row
     assert all(r["engine"] == RUNNERS[r["method"].split(" ")[0]].engine for r in rows)
     assert all(math.isfinite(r["steps_per_second"]) and r["steps_per_second"] > 0 for r in rows)

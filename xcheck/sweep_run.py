@@ -308,6 +308,10 @@ class _Dask:
         return as_completed(futures)
 
 
+def _ready() -> bool:
+    return True
+
+
 #: What a sweep's workers import as they start.
 WORKER_MODULES = ("xcheck.sweep_run", "xcheck.study", "xcheck.engines.mujoco")
 
@@ -324,6 +328,8 @@ def executor(kind: str = "local", jobs: int = 1, scheduler: str | None = None):
         from .pool import worker_pool
 
         with worker_pool(jobs, warm=WORKER_MODULES) as pool:
+            for f in [pool.submit(_ready) for _ in range(jobs)]:  # started and warmed: the start-up is measured
+                f.result()
             yield _Pool(pool, jobs)
         return
     try:
