@@ -254,3 +254,14 @@ def test_bundled_sweeps_are_valid():
                                                   "mujoco-implicitfast"]
     swap = specs["model-swap"]
     assert len(swap.cells) == 300 and len({c["params"]["model"] for c in swap.cells}) == 3
+
+
+def test_a_bundled_sweep_runs_by_name(tmp_path, capsys):
+    """`xcheck sweep NAME` finds a bundled sweep (an installed xcheck has no models/ folder at hand); `xcheck list`
+    names them; an unknown name is refused with the bundled names."""
+    assert main(["list"]) == 0
+    assert "gyroscope-spin-dt" in capsys.readouterr().out
+    assert main(["sweep", "no-such-sweep", "--out", str(tmp_path)]) == 2
+    assert "not a bundled sweep (gyroscope-spin-dt, model-swap, rax1-dipole-inertia)" in capsys.readouterr().err
+    spec = S.resolve_sweep("gyroscope-spin-dt")
+    assert spec.path.name == "gyroscope-spin-dt.toml" and len(spec.cells) == 8

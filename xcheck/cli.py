@@ -106,6 +106,15 @@ def _cmd_list(args) -> int:
         except ScenarioError as exc:
             desc = f"(invalid: {exc})"
         print(f"  {name:28s} {desc}")
+    from .sweep import bundled_sweeps, load_sweep
+
+    print("\nBundled sweeps (models/sweeps/; xcheck sweep NAME):")
+    for name, path in bundled_sweeps().items():
+        try:
+            desc = load_sweep(path).description
+        except ScenarioError as exc:
+            desc = f"(invalid: {exc})"
+        print(f"  {name:28s} {desc}")
     print("\nMethods:")
     for name, r in RUNNERS.items():
         order = r.expected_order if r.expected_order is not None else "adaptive"
@@ -435,14 +444,14 @@ def _cmd_bench(args) -> int:
 def _cmd_sweep(args) -> int:
     """A sweep: every cell a cross-check (see :mod:`xcheck.sweep` and :mod:`xcheck.sweep_run`)."""
     from .report.io import check_output_dir
-    from .sweep import load_sweep
+    from .sweep import resolve_sweep
     from .sweep_run import PARTIAL_LOG, run_sweep
 
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs: expected a positive number of processes, got {args.jobs}")
     if args.scheduler and args.executor != "dask":
         raise UsageError("--scheduler: only with --executor dask")
-    spec = load_sweep(args.spec)
+    spec = resolve_sweep(args.spec)
     check_output_dir(args.out, "--out")
     jobs = args.jobs or os.cpu_count() or 1
     n = len(spec.cells)
@@ -532,7 +541,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_nightly)
 
     p = sub.add_parser("sweep", help="a model-swap sweep: many cross-checks over bodies, fields, states and steps")
-    p.add_argument("spec", help="a sweep spec (.toml; see docs/sweeps.md and models/sweeps/)")
+    p.add_argument("spec", help="a bundled sweep (xcheck list) or a sweep spec .toml (see docs/sweeps.md)")
     p.add_argument("--out", default=os.path.join("reports", "sweeps"), metavar="DIR",
                    help="where sweeps go: DIR/<spec name>/<time>/ (default: ./reports/sweeps)")
     p.add_argument("--jobs", type=int, default=None, metavar="N", help="worker processes (default: CPU count)")

@@ -53,7 +53,7 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-__all__ = ["SweepError", "SweepSpec", "Axis", "load_sweep", "apply_cell", "flat_params", "AXES", "random_quaternions",
+__all__ = ["SweepError", "SweepSpec", "Axis", "load_sweep", "resolve_sweep", "bundled_sweeps", "apply_cell", "flat_params", "AXES", "random_quaternions",
            "random_directions"]
 
 
@@ -167,6 +167,23 @@ def cell_id(params: dict) -> str:
     return hashlib.sha1(text.encode()).hexdigest()[:12]
 
 
+def bundled_sweeps() -> dict[str, Path]:
+    """Bundled sweep names -> files (``models/sweeps/*.toml``)."""
+    from .models import BUNDLED_MODELS
+
+    return {p.stem: p for p in sorted((BUNDLED_MODELS / "sweeps").glob("*.toml"))}
+
+
+def resolve_sweep(name_or_path) -> SweepSpec:
+    """A bundled sweep by name, or a sweep spec by path."""
+    bundled = bundled_sweeps()
+    if str(name_or_path) in bundled and not Path(name_or_path).exists():
+        return load_sweep(bundled[str(name_or_path)])
+    if Path(name_or_path).suffix != ".toml" and not Path(name_or_path).exists():
+        raise SweepError(f"{name_or_path}: not a bundled sweep ({', '.join(bundled)}) nor a .toml file")
+    return load_sweep(name_or_path)
+
+
 def load_sweep(path) -> SweepSpec:
     """Read and check a sweep spec; its cells are generated (``.cells``: ``{"id", "params"}``)."""
     path = Path(path)
@@ -266,7 +283,7 @@ def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int) 
     for value in probes:
         if axis.name == "model":
             try:
-                body = load_body(value)
+                load_body(value)
             except ModelError as exc:
                 refuse(f"{exc}")
         if axis.name == "inertia":

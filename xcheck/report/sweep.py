@@ -164,13 +164,16 @@ def sweep_figures(spec: SweepSpec, rows: list, methods) -> list[tuple[str, str, 
                              "shows its values side by side, spread sideways so that points do not hide each other. "
                              "A method missing from a cell failed there (see the table)."))
         mj = [m for m in methods if RUNNERS[m].engine == "mujoco"]
-        numeric = [a for a in spec.axes if not _axis_column(a)[2]]
-        if mj and numeric and len(spec.steps) > 1:
-            figs.append(_png(_accuracy_maps(spec, rows, mj, numeric[0]), f"{stem}-accuracy-map.png",
+        # the map's columns: the first axis that is a physical parameter (not a random draw), else any numeric one
+        chosen = next((a for a in spec.axes if not a.random), None) or next(
+            (a for a in spec.axes if not _axis_column(a)[2]), None)
+        if mj and chosen is not None and len(spec.steps) > 1:
+            figs.append(_png(_accuracy_maps(spec, rows, mj, chosen), f"{stem}-accuracy-map.png",
                              f"Accuracy map of MuJoCo's integrators: the largest attitude error over the run "
-                             f"(colour, log scale) for each step and {_axis_column(numeric[0])[1]}; where other axes "
+                             f"(colour, log scale) for each step and {_axis_column(chosen)[1]}; where other axes "
                              f"vary too, the worst cell. The white line is the {ACCURACY:g} rad contour: below it "
-                             "(smaller steps) the body is simulated within that accuracy. Grey: the run failed."))
+                             "(smaller steps) the body is simulated within that accuracy. Grey: a run failed "
+                             "there; blank: no cell."))
         figs.append(_png(_work_precision(rows, methods, colors), f"{stem}-work-precision.png",
                          "Work against precision over every cell, method and step: the wall time of a run against "
                          "its attitude error at the final time (lower left is better). Batched methods' times are "
@@ -232,9 +235,10 @@ def _accuracy_maps(spec, rows, mj_methods, axis):
 
     from .plots import _subplots
 
-    column, label, _ = _axis_column(axis)
-    xs = sorted({r[column] for r in rows if r[column] is not None})
-    binned = len(xs) > 16
+    column, label, categorical = _axis_column(axis)
+    xs = list(dict.fromkeys(r[column] for r in rows if r[column] is not None))
+    xs = xs if categorical else sorted(xs)
+    binned = len(xs) > 16 and not categorical
     if binned:  # a sampled axis: 12 bins (logarithmic where it spans decades), drawn at their true positions
         lo, hi = xs[0], xs[-1]
         log_x = lo > 0 and hi / lo > 20
@@ -261,8 +265,9 @@ def _accuracy_maps(spec, rows, mj_methods, axis):
     norm = LogNorm(vmin=vmin, vmax=vmax)
     import matplotlib.pyplot as plt
 
-    cmap = plt.get_cmap("viridis").copy()
-    cmap.set_bad("0.6")
+    from matplotlib.colors import ListedColormap
+
+    cmap = plt.get_cmap("viridis")
     mesh = None
     for ax, m in zip(axes.flat, mj_methods):
         Z = np.full((len(steps), len(xe) - 1), -np.inf)
@@ -277,6 +282,9 @@ def _accuracy_maps(spec, rows, mj_methods, axis):
                 Z[i, j] = max(Z[i, j], r["max_attitude_error"])
         Z = np.where(failed | ~np.isfinite(Z), np.nan, np.maximum(Z, vmin))
         mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(Z), norm=norm, cmap=cmap, shading="flat")
+        if failed.any():
+            ax.pcolormesh(xe, ye, np.ma.masked_where(~failed, np.ones_like(Z)), cmap=ListedColormap(["0.6"]),
+                          shading="flat")
         lo, hi = np.nanmin(Z, initial=np.inf), np.nanmax(Z, initial=-np.inf)
         if lo < ACCURACY < hi and Z.shape[1] > 1:
             xc = 0.5 * (xe[:-1] + xe[1:]) if not binned else np.sqrt(xe[:-1] * xe[1:]) if log_x else 0.5 * (xe[:-1] + xe[1:])
@@ -295,7 +303,7 @@ def _accuracy_maps(spec, rows, mj_methods, axis):
                 ax.set_xscale("log")
         else:
             ax.set_xticks(range(len(xs)))
-            ax.set_xticklabels([format(v, ".3g") for v in xs], fontsize=8)
+            ax.set_xticklabels([format(v, ".3g") if isinstance(v, float) else str(v) for v in xs], fontsize=8)
         ax.set_xlabel(label)
         ax.set_ylabel("step Δt [s]")
         ax.set_title(m, fontsize=9)
