@@ -23,7 +23,7 @@ from .scenario import Scenario, build_torque, check_steps
 from .trajectory import step_plan
 from .versions import versions
 
-__all__ = ["run_study", "run_studies", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows"]
+__all__ = ["run_study", "run_studies", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows", "planned_checks"]
 
 SCHEMA = "xcheck.convergence/1"
 #: Series kept for plots and CSV are sampled at this spacing [s] (or every step, if coarser).
@@ -465,6 +465,34 @@ def _method_checks(m: MethodResult, cfg, torque_free, quick=False) -> list[Check
         drift = max(finest.energy_drift, finest.momentum_drift)
         out.append(Check("invariants", drift <= cfg["invariant_tolerance"], m.name, drift, cfg["invariant_tolerance"],
                          f"energy and momentum drift at dt = {finest.dt:g} s"))
+    return out
+
+
+def planned_checks(scenario: Scenario, methods, quick: bool = False) -> list[tuple[str, str]]:
+    """``(method, kind)`` of every check a study of ``methods`` makes, known before it runs (what the pytest
+    plugin turns into test items): per method ``runs`` (its finest run completed), ``order`` (with an expected
+    order), ``final-error`` and, torque free, ``invariants`` (order >= 4, full studies), ``agreement`` (an
+    engine's RK4, when the study has one of our fourth-order methods); ``expected-failure`` instead of all of
+    them for a method the scenario expects to fail. Kept beside :func:`_checks`, which makes them."""
+    cfg = scenario.checks
+    torque_free = scenario.torque is None
+    ours4 = any(RUNNERS[m].engine == "xcheck" and RUNNERS[m].expected_order == 4 and m not in cfg["expected_to_fail"]
+                for m in methods)
+    out = []
+    for m in methods:
+        runner = RUNNERS[m]
+        if m in cfg["expected_to_fail"]:
+            out.append((m, "expected-failure"))
+            continue
+        out.append((m, "runs"))
+        if runner.expected_order is not None:
+            out.append((m, "order"))
+            if runner.expected_order >= 4 and not quick:
+                out.append((m, "final-error"))
+                if torque_free:
+                    out.append((m, "invariants"))
+        if runner.agreement and ours4:
+            out.append((m, "agreement"))
     return out
 
 

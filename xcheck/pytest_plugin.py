@@ -1,0 +1,157 @@
+"""xcheck inside other people's pytest suites (issue 13): scenario files as tests.
+
+Installed with xcheck (entry point ``pytest11``) and inactive until a file matches: every ``xcheck_*.toml``
+(ini option ``xcheck_files``: file-name patterns, or patterns of paths relative to the root directory such as
+``models/scenarios/*.toml``) is a scenario file, collected as ``<file>::<method>::<check>`` test items (each
+check the study makes: ``runs``, ``order``, ``final-error``, ``invariants``, ``agreement``,
+``expected-failure``), so that a failure names the method and the check and ``-k`` selects. The study runs
+once per file, in this process, when its first item runs; its items share it (with pytest-xdist, use
+``--dist loadfile`` so that one worker runs a file's items).
+
+Options: ``--xcheck-quick`` (or ini ``xcheck_quick = true``) runs the scenarios' quick steps; ``--xcheck-report
+DIR`` writes the full cross-check report of the studies run (with xdist, one report per worker). A scenario
+file that does not parse is one failing item with the CLI's message.
+
+This module imports only pytest at start-up: every pytest run in an environment with xcheck loads it.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+from pathlib import Path
+
+import pytest
+
+_STUDIES: list = []  # the studies run in this process, for --xcheck-report
+
+
+def pytest_addoption(parser):
+    group = parser.getgroup("xcheck", "xcheck scenario files")
+    group.addoption("--xcheck-quick", action="store_true", default=False,
+                    help="run the scenario files' quick steps (a fast look)")
+    group.addoption("--xcheck-report", metavar="DIR", default=None,
+                    help="write the cross-check report of the scenario files run into DIR")
+    parser.addini("xcheck_files", type="args", default=["xcheck_*.toml"],
+                  help="scenario files collected as tests: file-name or root-relative path patterns")
+    parser.addini("xcheck_quick", type="bool", default=False, help="like --xcheck-quick")
+
+
+def _quick(config) -> bool:
+    return bool(config.getoption("xcheck_quick") or config.getini("xcheck_quick"))
+
+
+def pytest_collect_file(file_path: Path, parent):
+    if file_path.suffix != ".toml":
+        return None
+    patterns = parent.config.getini("xcheck_files")
+    try:
+        relative = file_path.relative_to(parent.config.rootpath).as_posix()
+    except ValueError:
+        relative = file_path.as_posix()
+    if any(fnmatch.fnmatch(file_path.name, p) or fnmatch.fnmatch(relative, p) for p in patterns):
+        return ScenarioFile.from_parent(parent, path=file_path)
+    return None
+
+
+class XcheckFailure(Exception):
+    """A check that failed; the message is the whole report (no traceback)."""
+
+
+class ScenarioFile(pytest.File):
+    """One scenario file: its methods, each with its checks."""
+
+    def collect(self):
+        import warnings
+
+        from .scenario import ScenarioError, load_scenario
+        from .study import default_methods, planned_checks
+
+        warnings.filterwarnings("ignore", category=UserWarning, module=r"xcheck\.models")
+        try:
+            self.scenario = load_scenario(self.path)
+        except ScenarioError as exc:
+            yield BrokenScenario.from_parent(self, name="scenario", message=str(exc))
+            return
+        self._study = None
+        methods = default_methods(self.scenario)
+        planned = planned_checks(self.scenario, methods, quick=_quick(self.config))
+        for method in methods:
+            kinds = [k for m, k in planned if m == method]
+            yield MethodNode.from_parent(self, name=method, kinds=kinds)
+
+    def study(self):
+        """The scenario's study, run once (the first item to ask runs it; an error is kept and raised again)."""
+        if self._study is None:
+            from .study import run_study
+
+            try:
+                st = run_study(self.scenario, quick=_quick(self.config), workers=1)
+                _STUDIES.append(st)
+                self._study = st
+            except Exception as exc:  # e.g. a reference over budget: every item says so
+                self._study = exc
+        if isinstance(self._study, Exception):
+            raise XcheckFailure(f"{self.scenario.name}: the study could not run: {self._study}")
+        return self._study
+
+
+class MethodNode(pytest.Collector):
+    def __init__(self, *, kinds, **kwargs):
+        super().__init__(**kwargs)
+        self.kinds = kinds
+
+    def collect(self):
+        for kind in self.kinds:
+            yield CheckItem.from_parent(self, name=kind)
+
+
+class _Item(pytest.Item):
+    def repr_failure(self, excinfo, style=None):
+        if isinstance(excinfo.value, XcheckFailure):
+            return str(excinfo.value)
+        return super().repr_failure(excinfo, style=style)
+
+
+class CheckItem(_Item):
+    """One check of one method of a scenario file."""
+
+    def runtest(self):
+        from .testing import check_message
+
+        st = self.parent.parent.study()
+        message = check_message(st, self.parent.name, self.name)
+        if message is not None:
+            raise XcheckFailure(message)
+
+    def reportinfo(self):
+        return self.path, None, f"{self.parent.parent.scenario.name}: {self.parent.name} {self.name}"
+
+
+class BrokenScenario(_Item):
+    """A scenario file that cannot be read: one failing item with the message the CLI gives."""
+
+    def __init__(self, *, message, **kwargs):
+        super().__init__(**kwargs)
+        self.message = message
+
+    def runtest(self):
+        raise XcheckFailure(self.message)
+
+    def reportinfo(self):
+        return self.path, None, f"{self.path.name}: cannot be read"
+
+
+def pytest_sessionfinish(session, exitstatus):
+    out = session.config.getoption("xcheck_report")
+    if not out or not _STUDIES:
+        return
+    from .report.render import write_report
+
+    folder = write_report(list(_STUDIES), out, quick=_quick(session.config))
+    session.config._xcheck_report = folder
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    folder = getattr(config, "_xcheck_report", None)
+    if folder is not None:
+        terminalreporter.write_line(f"xcheck report: {folder}/index.html")

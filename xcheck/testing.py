@@ -1,0 +1,186 @@
+"""Assertion helpers for hand-written tests, and the failure messages the pytest plugin prints (issue 13).
+
+>>> from xcheck.testing import assert_converges, assert_matches_reference, assert_agrees, assert_invariants
+>>> assert_converges("xcheck_my_body.toml", method="mujoco-rk4", order=4, tol=0.3)
+
+Each helper runs what it needs in this process (no worker processes: safe under pytest-xdist, and MuJoCo's
+process-global control callback is installed and restored around every run) and raises an
+:class:`XcheckAssertionError` (an ``AssertionError``) whose message says what was measured, the limit, the
+steps and the reference, and the report line that explains it.
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = ["assert_converges", "assert_matches_reference", "assert_agrees", "assert_invariants",
+           "XcheckAssertionError", "check_message"]
+
+
+class XcheckAssertionError(AssertionError):
+    """A cross-check that did not hold; the message is complete (pytest shows it without a traceback)."""
+
+
+def _scenario(scenario_or_path):
+    from .scenario import Scenario, resolve_scenario
+
+    return scenario_or_path if isinstance(scenario_or_path, Scenario) else resolve_scenario(scenario_or_path)
+
+
+def _steps_text(steps) -> str:
+    from .report.document import step_label
+
+    steps = sorted(steps, reverse=True)
+    return f"{step_label(steps[0])} … {step_label(steps[-1])} s ({len(steps)} steps)" if len(steps) > 1 else \
+        f"{step_label(steps[0])} s"
+
+
+def _num(v) -> str:
+    return "—" if v is None else f"{v:.3g}"
+
+
+def method_line(study, method: str) -> str:
+    """The report's line for one method: its finest good run's errors, its observed order, its runs that
+    failed (the runs table and the order column of the report, in one line)."""
+    from .report.document import step_label
+
+    m = study.methods[method]
+    parts = []
+    if m.finest is not None:
+        f = m.finest
+        parts.append(f"at Δt = {step_label(f.dt)} s attitude error {_num(f.attitude_error)} rad (largest over the run "
+                     f"{_num(f.max_attitude_error)} rad)")
+    parts.append(f"observed order {_num(m.observed_order)}" + (f" ({m.order_note})" if m.order_note else ""))
+    failed = [r for r in m.runs if not r.ok]
+    if failed:
+        parts.append("; ".join(f"Δt = {step_label(r.dt)} s {r.status}: {r.message}" for r in failed[:2]))
+    return f"report: {method}: " + "; ".join(parts)
+
+
+def check_message(study, method: str, kind: str) -> str | None:
+    """Why the check ``kind`` of ``method`` failed in ``study`` (None when it passed): the measured value, the
+    limit, the steps, the reference and the report's line for the method."""
+    sc = study.scenario
+    if any(c.kind == "reference" and not c.passed for c in study.checks):
+        ref = next(c for c in study.checks if c.kind == "reference")
+        return f"{sc.name}: nothing measured: {ref.note}"
+    found = [c for c in study.checks if c.method == method and c.kind == kind]
+    if kind == "runs" and not found:
+        return None  # the runs check is made only when it fails
+    if not found:
+        return (f"{sc.name}: {method} {kind}: not measured (no run of {method} completed)\n"
+                f"{method_line(study, method)}")
+    check = found[0]
+    if check.passed:
+        return None
+    cfg = sc.checks
+    if kind == "order":
+        m = study.methods[method]
+        limit = (f"expected {m.expected_order} (allowed {m.expected_order - cfg['order_tolerance']:.2f} … "
+                 f"{m.expected_order + cfg['order_excess']:.2f})")
+        measured = f"observed order {_num(check.value)}"
+    elif kind == "runs":
+        limit, measured = "its finest run must complete", check.note
+    elif kind == "expected-failure":
+        limit, measured = "expected to fail (the scenario's [checks] expected_to_fail)", check.note
+    else:
+        what = {"final-error": "attitude error at the finest step [rad]", "invariants":
+                "energy / momentum drift at the finest step", "agreement": "worse of the two errors [rad]"}[kind]
+        limit, measured = f"limit {_num(check.limit)}", f"{what} {_num(check.value)}"
+    return (f"{sc.name}: {method} {kind} FAILED: {measured}; {limit}\n"
+            f"  steps {_steps_text(study.steps)}, {sc.reference} reference, {sc.duration:g} s"
+            + (f"; {check.note}" if check.note and kind not in ("runs", "expected-failure") else "") + "\n"
+            f"  {method_line(study, method)}")
+
+
+# ------------------------------------------------------------------------------------------------------
+def _study(scenario_or_path, methods, steps=None, quick=True):
+    from .study import run_study
+
+    sc = _scenario(scenario_or_path)
+    return run_study(sc, methods=methods, steps=steps, quick=quick and steps is None, workers=1)
+
+
+def assert_converges(scenario_or_path, *, method: str, order: float | None = None, tol: float = 0.3, steps=None,
+                     quick: bool = True):
+    """The observed order of ``method`` on the scenario is ``order`` (default: the method's expected order)
+    within ``tol``. Runs the scenario's quick steps (``quick``) or ``steps``. Returns the study."""
+    from .runners import RUNNERS
+
+    st = _study(scenario_or_path, [method], steps, quick)
+    m = st.methods[method]
+    want = order if order is not None else RUNNERS[method].expected_order
+    if want is None:
+        raise ValueError(f"order: {method} has no expected order; give order=")
+    if m.observed_order is None or abs(m.observed_order - want) > tol:
+        raise XcheckAssertionError(
+            f"{st.name}: {method} does not converge at order {want} ± {tol}: observed {_num(m.observed_order)}\n"
+            f"  steps {_steps_text(st.steps)}, {st.scenario.reference} reference\n  {method_line(st, method)}")
+    return st
+
+
+def assert_matches_reference(scenario_or_path, *, method: str, atol: float, dt: float | None = None):
+    """The largest attitude error of ``method`` over the run, at ``dt`` (default: the scenario's finest quick
+    step), against the scenario's reference is at most ``atol`` [rad]. Returns the run."""
+    sc = _scenario(scenario_or_path)
+    dt = dt if dt is not None else min(sc.quick_steps)
+    st = _study(sc, [method], steps=[dt])
+    run = st.methods[method].runs[0]
+    if not run.ok or not run.max_attitude_error <= atol:
+        got = f"{run.status}: {run.message}" if not run.ok else f"{run.max_attitude_error:.3g} rad"
+        raise XcheckAssertionError(
+            f"{sc.name}: {method} at Δt = {dt:g} s is not within {atol:g} rad of the {sc.reference} reference: "
+            f"largest attitude error over the run {got} (at the end {_num(run.attitude_error)} rad)")
+    return run
+
+
+def assert_agrees(scenario_or_path, a: str, b: str, *, dt: float, atol: float):
+    """Methods (or engines) ``a`` and ``b`` on the same scenario at the same step agree within ``atol`` [rad]:
+    their largest attitude difference over the run, trajectory against trajectory (no reference). Returns it."""
+    from . import rotations as rot
+    from .runners import RUNNERS
+    from .study import run_context
+
+    sc = _scenario(scenario_or_path)
+    for name in (a, b):
+        if name not in RUNNERS:
+            raise ValueError(f"method: unknown {name!r}; expected one of {', '.join(RUNNERS)}")
+    ctx = run_context(sc)
+    ta, tb = RUNNERS[a].run(ctx, dt), RUNNERS[b].run(ctx, dt)
+    for name, t in ((a, ta), (b, tb)):
+        if not t.ok:
+            raise XcheckAssertionError(f"{sc.name}: {name} at Δt = {dt:g} s did not complete: {t.message}")
+    diff = rot.attitude_error(ta.q, tb.q)
+    worst = float(diff.max())
+    if not worst <= atol:
+        k = int(diff.argmax())
+        raise XcheckAssertionError(
+            f"{sc.name}: {a} and {b} at Δt = {dt:g} s differ by {worst:.3g} rad (at t = {ta.t[k]:.4g} s), more than "
+            f"{atol:g} rad (trajectory against trajectory, no reference; at the end {diff[-1]:.3g} rad)")
+    return worst
+
+
+def assert_invariants(scenario_or_path, *, method: str, dt: float | None = None, rtol: float = 1e-9,
+                      norm_atol: float = 1e-12):
+    """A torque-free scenario conserves kinetic energy and world angular momentum: their relative drift over the
+    run of ``method`` at ``dt`` (default: the finest quick step) is at most ``rtol``, and the quaternion's norm
+    stays within ``norm_atol`` of 1. Returns the drifts."""
+    from .metrics import invariant_drift
+    from .runners import RUNNERS
+    from .study import run_context
+
+    sc = _scenario(scenario_or_path)
+    if sc.torque is not None:
+        raise ValueError(f"{sc.name}: has a [torque]: energy and momentum are not conserved; use a torque-free scenario")
+    dt = dt if dt is not None else min(sc.quick_steps)
+    ctx = run_context(sc)
+    traj = RUNNERS[method].run(ctx, dt)
+    if not traj.ok:
+        raise XcheckAssertionError(f"{sc.name}: {method} at Δt = {dt:g} s did not complete: {traj.message}")
+    drift = invariant_drift(ctx.inertia, traj)
+    bad = [f"{k.replace('_', ' ')} {drift[k]:.3g} > {lim:g}" for k, lim in
+           (("energy_drift", rtol), ("momentum_drift", rtol), ("norm_drift", norm_atol))
+           if not (math.isfinite(drift[k]) and drift[k] <= lim)]
+    if bad:
+        raise XcheckAssertionError(f"{sc.name}: {method} at Δt = {dt:g} s over {sc.duration:g} s: " + "; ".join(bad))
+    return drift
