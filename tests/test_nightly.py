@@ -175,9 +175,12 @@ def test_a_killed_nightly_records_nothing_and_leaves_the_history_readable(tmp_pa
     out = tmp_path / "reports"
     assert _nightly(SCENARIO, "--out", out).returncode == 0
     before = (out / "history.sqlite").read_bytes()
-    p = _nightly(SCENARIO, "--out", out, popen=True)
-    import time
-    time.sleep(1.5)  # imports done, the studies running
+    p = _nightly(SCENARIO, "--out", out, "--workers", "2", popen=True)  # (the last --workers counts)
+    from test_abuse import _children, _wait_for
+
+    # the studies running: the worker pool starts once the command's imports are done and Ctrl-C is handled
+    # (a fixed sleep was too short on a loaded machine: the interrupt landed during the imports)
+    assert _wait_for(lambda: _children(p.pid), timeout=60, step=0.05)
     p.send_signal(signal.SIGINT)
     p.communicate(timeout=120)
     assert p.returncode == 130

@@ -1,0 +1,178 @@
+"""xcheck inside other people's pytest suites (issue 13): the plugin through pytester (collection and ids, a
+failing check's message, a broken file among good ones, -k, xdist, JUnit XML, --xcheck-report), the assertion
+helpers, and the example repository."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+from xcheck import testing as T
+from xcheck.models import BUNDLED_MODELS
+from xcheck.scenario import load_scenario, resolve_scenario
+from xcheck.study import default_methods, planned_checks, run_study
+
+pytest_plugins = ["pytester"]
+
+GYRO = BUNDLED_MODELS / "scenarios" / "gyroscope-nonsingular.toml"
+EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "pytest-suite"
+
+
+def _scenario_file(pytester, name="xcheck_gyro.toml", extra_checks=""):
+    """The bundled gyroscope scenario as a user's file (the model path made absolute)."""
+    text = GYRO.read_text().replace('"../gyroscope.xml"', f'"{(BUNDLED_MODELS / "gyroscope.xml").as_posix()}"')
+    text = text.replace("[study]", "[study]\nmethods = [\"lie-rkmk4\", \"formulation-2\", \"mujoco-rk4\"]")
+    if extra_checks:
+        text += f"\n[checks]\n{extra_checks}\n"
+    path = pytester.path / name
+    path.write_text(text)
+    return path
+
+
+def _run(pytester, *args):
+    return pytester.runpytest_subprocess("-p", "no:cacheprovider", "--xcheck-quick", *args)
+
+
+def test_items_and_their_ids(pytester):
+    """Truth: planned_checks of the scenario (quick: order and agreement, no final-error or invariants)."""
+    _scenario_file(pytester)
+    result = _run(pytester, "--co", "-q")
+    ids = [line for line in result.outlines if "::" in line]
+    assert ids == ["xcheck_gyro.toml::lie-rkmk4::runs", "xcheck_gyro.toml::lie-rkmk4::order",
+                   "xcheck_gyro.toml::formulation-2::runs", "xcheck_gyro.toml::formulation-2::order",
+                   "xcheck_gyro.toml::mujoco-rk4::runs", "xcheck_gyro.toml::mujoco-rk4::order",
+                   "xcheck_gyro.toml::mujoco-rk4::agreement"]
+    result = _run(pytester, "-q")
+    result.assert_outcomes(passed=7)
+
+
+def test_a_failing_check_says_what_was_measured(pytester):
+    """An agreement limit no engine can meet (1e-16 rad): the item fails naming the method and the check, with the
+    measured value, the limit, the steps, the reference and the report's line; the others pass."""
+    _scenario_file(pytester, extra_checks="agreement = 1e-16")
+    result = _run(pytester, "-q", "--junitxml=j.xml")
+    result.assert_outcomes(passed=6, failed=1)
+    text = result.stdout.str()
+    assert "FAILED xcheck_gyro.toml::mujoco-rk4::agreement" in text
+    assert "gyroscope-nonsingular: mujoco-rk4 agreement FAILED: worse of the two errors [rad]" in text
+    assert "limit 1e-16" in text and "steps 1/64 … 1/1024 s (5 steps), exact reference, 10 s" in text
+    assert "report: mujoco-rk4: at Δt = 1/1024 s attitude error" in text and "Traceback" not in text
+    # JUnit XML for dashboards: the measured values in the failure's text
+    root = ET.parse(pytester.path / "j.xml").getroot()
+    failures = [(case.get("name"), case.find("failure")) for case in root.iter("testcase")
+                if case.find("failure") is not None]
+    assert len(failures) == 1 and failures[0][0] == "agreement"
+    message = failures[0][1].get("message") + (failures[0][1].text or "")
+    assert "limit 1e-16" in message and "worse of the two errors [rad] " in message
+
+
+def test_a_broken_file_is_one_failing_item_among_good_ones(pytester):
+    _scenario_file(pytester)
+    (pytester.path / "xcheck_broken.toml").write_text('name = "broken"\nmodel = 3\n')
+    result = _run(pytester, "-q")
+    result.assert_outcomes(passed=7, failed=1)
+    text = result.stdout.str()
+    assert "FAILED xcheck_broken.toml::scenario" in text
+    assert "xcheck_broken.toml: model: expected a string, got int 3" in text  # the CLI's message
+
+
+def test_k_selects_a_method_and_a_check(pytester):
+    _scenario_file(pytester)
+    result = _run(pytester, "-q", "-k", "mujoco-rk4 and order")
+    result.assert_outcomes(passed=1, deselected=6)
+
+
+def test_under_xdist(pytester):
+    """Two workers, a file per worker: the same items pass as without xdist (MuJoCo's callback is installed and
+    restored around every run, in each worker's own process)."""
+    pytest.importorskip("xdist")
+    _scenario_file(pytester)
+    _scenario_file(pytester, name="xcheck_gyro2.toml")
+    result = _run(pytester, "-q", "-n", "2", "--dist", "loadfile")
+    result.assert_outcomes(passed=14)
+
+
+def test_the_report_of_the_run(pytester):
+    _scenario_file(pytester)
+    result = _run(pytester, "-q", "--xcheck-report", "rep")
+    result.assert_outcomes(passed=7)
+    assert (pytester.path / "rep" / "latest" / "index.html").is_file()
+    assert "xcheck report: " in result.stdout.str()
+
+
+def test_an_ordinary_suite_is_left_alone(pytester):
+    """Inactive until used: a suite without scenario files collects exactly its own tests."""
+    pytester.makepyfile(test_plain="def test_one():\n    assert 1 + 1 == 2\n")
+    (pytester.path / "settings.toml").write_text("x = 1\n")  # a .toml that is not a scenario file
+    result = _run(pytester, "-q")
+    result.assert_outcomes(passed=1)
+
+
+def test_planned_checks_are_the_checks_a_study_makes():
+    """Truth: the checks of real quick studies of every bundled scenario (the plugin's items are planned before
+    the study runs)."""
+    from xcheck.scenario import bundled_scenarios
+
+    for name in bundled_scenarios():
+        sc = resolve_scenario(name)
+        st = run_study(sc, quick=True, workers=1)
+        planned = set(planned_checks(sc, default_methods(sc), quick=True))
+        made = {(c.method, c.kind) for c in st.checks}
+        assert made <= planned, (name, made - planned)
+        assert {p for p in planned if p[1] != "runs"} <= made, name
+
+
+# ------------------------------------------------------------------------------------------------------
+# the helpers
+# ------------------------------------------------------------------------------------------------------
+def test_assert_converges():
+    """Truth: lie-rkmk4 is order 4; the printed algorithm 172 is order 2 (the seed 004 finding)."""
+    st = T.assert_converges("gyroscope-nonsingular", method="lie-rkmk4", order=4, tol=0.3)
+    assert abs(st.methods["lie-rkmk4"].observed_order - 4) < 0.3
+    with pytest.raises(T.XcheckAssertionError) as err:
+        T.assert_converges("tumbler-intermediate-axis", method="lie-thesis-172", order=4, tol=0.3)
+    text = str(err.value)
+    assert "lie-thesis-172 does not converge at order 4 ± 0.3: observed 2" in text
+    assert "steps 1/64 … 1/1024 s (5 steps), exact reference" in text and "report: lie-thesis-172:" in text
+
+
+def test_assert_matches_reference():
+    run = T.assert_matches_reference("gyroscope-nonsingular", method="mujoco-rk4", dt=1 / 256, atol=1e-9)
+    assert run.max_attitude_error < 1e-9
+    with pytest.raises(T.XcheckAssertionError, match=r"mujoco-euler at Δt = 0.00390625 s is not within 1e-06 rad "
+                                                     r"of the exact reference: largest attitude error over the run"):
+        T.assert_matches_reference("gyroscope-nonsingular", method="mujoco-euler", dt=1 / 256, atol=1e-6)
+
+
+def test_assert_agrees():
+    """Truth: MuJoCo's RK4 and our RKMK4 are both fourth order: at 1/256 s they agree far below 1e-9 rad; MuJoCo's
+    Euler does not."""
+    assert T.assert_agrees("gyroscope-nonsingular", "mujoco-rk4", "lie-rkmk4", dt=1 / 256, atol=1e-9) < 1e-9
+    with pytest.raises(T.XcheckAssertionError, match="mujoco-euler and lie-rkmk4 at Δt = 0.00390625 s differ by"):
+        T.assert_agrees("gyroscope-nonsingular", "mujoco-euler", "lie-rkmk4", dt=1 / 256, atol=1e-6)
+
+
+def test_assert_invariants():
+    drift = T.assert_invariants("tumbler-intermediate-axis", method="lie-rkmk4", dt=1 / 512, rtol=1e-9)
+    assert drift["energy_drift"] < 1e-9
+    with pytest.raises(T.XcheckAssertionError, match=r"mujoco-implicitfast .* energy drift"):
+        T.assert_invariants("tumbler-intermediate-axis", method="mujoco-implicitfast", dt=1 / 512, rtol=1e-6)
+    with pytest.raises(ValueError, match="has a \\[torque\\]"):
+        T.assert_invariants("rax1-orbit-field", method="lie-rkmk4")
+
+
+def test_the_example_repository_passes(tmp_path):
+    """examples/pytest-suite, copied out of this repository as a user's own: pytest there, with nothing but
+    xcheck installed, collects its scenario files and its hand-written test, and they pass."""
+    dest = tmp_path / "team-repo"
+    shutil.copytree(EXAMPLE, dest)
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"], cwd=dest,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "18 passed" in proc.stdout
+    assert load_scenario(dest / "xcheck_tumble.toml").model.name == "satellite.xml"
