@@ -99,22 +99,17 @@ def _cmd_list(args) -> int:
     from .runners import RUNNERS
     from .scenario import ScenarioError, bundled_scenarios, load_scenario
 
-    print("Bundled scenarios (models/scenarios/):")
-    for name, path in bundled_scenarios().items():
-        try:
-            desc = load_scenario(path).description
-        except ScenarioError as exc:
-            desc = f"(invalid: {exc})"
-        print(f"  {name:28s} {desc}")
     from .sweep import bundled_sweeps, load_sweep
 
-    print("\nBundled sweeps (models/sweeps/; xcheck sweep NAME):")
-    for name, path in bundled_sweeps().items():
-        try:
-            desc = load_sweep(path).description
-        except ScenarioError as exc:
-            desc = f"(invalid: {exc})"
-        print(f"  {name:28s} {desc}")
+    for title, files, load in (("Bundled scenarios (models/scenarios/):", bundled_scenarios(), load_scenario),
+                               ("\nBundled sweeps (models/sweeps/; xcheck sweep NAME):", bundled_sweeps(), load_sweep)):
+        print(title)
+        for name, path in files.items():
+            try:
+                desc = load(path).description
+            except ScenarioError as exc:
+                desc = f"(invalid: {exc})"
+            print(f"  {name:28s} {desc}")
     print("\nMethods:")
     for name, r in RUNNERS.items():
         order = r.expected_order if r.expected_order is not None else "adaptive"

@@ -268,13 +268,16 @@ def _run_method(scenario: Scenario, method: str, steps: tuple, partner: str | No
 
     warnings.filterwarnings("ignore", category=UserWarning, module="xcheck.models")
     try:
-        return _measure_method(scenario, method, steps, partner)
+        return measure_method(scenario, method, steps, partner)
     except ReferenceFailure as exc:  # building or evaluating it: nothing can be measured, the study fails with
         return {"method": method, "runs": [Run.failed(dt, "failed", f"no reference: {exc}", 0.0) for dt in steps],
                 "series": None, "reference_error": str(exc), "comparisons": []}  # the reason
 
 
-def _measure_method(scenario: Scenario, method: str, steps: tuple, partner: str | None, sample: bool = True) -> dict:
+def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str | None, sample: bool = True) -> dict:
+    """One method at every step of a scenario, run one at a time (what :func:`assemble` takes): its runs, with a
+    ``partner`` the direct comparisons, and with ``sample`` the finest good run sampled for the figures (a
+    sweep, which draws none, skips it)."""
     ctx = run_context(scenario)
     ref = scenario_reference(scenario)
     runner = RUNNERS[method]

@@ -281,11 +281,6 @@ def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int) 
         return  # any unit quaternion and any rate are a state
     probes = axis.values if axis.values is not None else [v for v in (axis.low, axis.high) if v is not None]
     for value in probes:
-        if axis.name == "model":
-            try:
-                load_body(value)
-            except ModelError as exc:
-                refuse(f"{exc}")
         if axis.name == "inertia":
             try:
                 validate_inertia(value)
@@ -305,6 +300,8 @@ def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int) 
             try:
                 body = load_body(sc.model)
                 build_torque(sc, body)
+            except ModelError as exc:  # names the file already
+                refuse(str(exc))
             except ValueError as exc:
                 refuse(f"{value!r}: {exc}")
 

@@ -180,10 +180,10 @@ def run_chunk(chunk: list[tuple], methods: list[str], steps: tuple) -> list[dict
 
 
 def _run_single(method: str, c: _Cell, steps: tuple) -> None:
-    from .study import _measure_method
+    from .study import measure_method
 
     t0 = time.perf_counter()
-    res = _measure_method(c.scenario, method, steps, None, sample=False)
+    res = measure_method(c.scenario, method, steps, None, sample=False)
     c.timings["compute"] += time.perf_counter() - t0
     c.results.append(res)
 
