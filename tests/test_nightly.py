@@ -179,8 +179,22 @@ def test_a_killed_nightly_records_nothing_and_leaves_the_history_readable(tmp_pa
     from test_abuse import _children, _wait_for
 
     # the studies running: the worker pool starts once the command's imports are done and Ctrl-C is handled
-    # (a fixed sleep was too short on a loaded machine: the interrupt landed during the imports)
-    assert _wait_for(lambda: _children(p.pid), timeout=60, step=0.05)
+    # (a fixed sleep was too short on a loaded machine: the interrupt landed during the imports). Pool workers
+    # only: a passing `uname` (platform, at import) is a child too
+    def pool_workers():
+        found = []
+        for w in _children(p.pid):
+            try:
+                if b"spawn_main" in Path(f"/proc/{w}/cmdline").read_bytes():
+                    found.append(w)
+            except OSError:
+                pass
+        return found
+
+    assert _wait_for(pool_workers, timeout=60, step=0.05)
+    import time
+
+    time.sleep(0.5)  # past the moment the workers start, while the parent ignores Ctrl-C (xcheck.pool)
     p.send_signal(signal.SIGINT)
     p.communicate(timeout=120)
     assert p.returncode == 130
