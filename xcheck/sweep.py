@@ -359,6 +359,7 @@ def apply_cell(base: Scenario, params: dict) -> Scenario:
     scale), then inertia, dipole, field, attitude and rate."""
     import dataclasses
 
+    from .fields import FIELDS
     from .models import load_body
 
     sc = dataclasses.replace(base, torque=dict(base.torque) if base.torque else None)
@@ -376,16 +377,12 @@ def apply_cell(base: Scenario, params: dict) -> Scenario:
         dipole = sc.torque.get("dipole", body.dipole)
         sc.torque["dipole"] = [params["dipole_scale"] * float(m) for m in dipole]
     if "field" in params:
-        from .fields import FIELDS
-
         keys = FIELDS[params["field"]].keys
         sc.torque = {k: v for k, v in sc.torque.items() if k in ("kind", "dipole") or k in keys}
         sc.torque["field"] = params["field"]
     for name, value in params.items():
         if name.startswith("field."):
             key = name.removeprefix("field.")
-            from .fields import FIELDS
-
             if key in FIELDS[sc.torque["field"]].keys:  # a key the cell's field model has
                 sc.torque[key] = value
     if "attitude" in params:

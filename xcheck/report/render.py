@@ -17,7 +17,7 @@ from ..versions import machine, versions
 from .document import Cell, Figure, Heading, Para, Table, Verdict, step_label, to_html, to_markdown
 from .io import write_json_atomic, write_text_atomic, write_trajectory_csv
 
-__all__ = ["write_report", "draw_figures", "report_document", "REPORT_SCHEMA", "verdict_of"]
+__all__ = ["write_report", "draw_figures", "report_document", "StampedFolder", "REPORT_SCHEMA", "verdict_of"]
 
 REPORT_SCHEMA = "xcheck.report/1"
 
@@ -58,14 +58,8 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
 
     marks = [] if marks is None else marks
     figures = dict(figures or {})
-    out_root = Path(out_root)
-    out_root.mkdir(parents=True, exist_ok=True)
-    remove_stale(out_root)
-    stamp = stamp or datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
-    tmp = out_root / f"{_INCOMPLETE}{stamp}-{_owner()}"
-    shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir()
-    try:
+    folder = StampedFolder(out_root, stamp=stamp, on_failure=lambda: stop_pool(pool) if pool is not None else None)
+    with folder as tmp:
         for st in studies:
             if st.name not in figures:
                 figures[st.name] = (pool.submit(draw_figures, st.data, st.series, quick) if pool is not None
@@ -93,14 +87,48 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
         document = report_document(studies, results, captions, extra=extra, summary=summary)
         write_text_atomic(tmp / "report.md", to_markdown(document))
         write_text_atomic(tmp / "index.html", to_html(document, tmp / "plots", title="xcheck cross-check report"))
-        final = _rename_into_place(tmp, out_root, stamp)
-        marks.append(("files written", time.perf_counter()))
-    except BaseException:
-        _finish_despite_interrupts(lambda: stop_pool(pool) if pool is not None else None,
-                                   lambda: shutil.rmtree(tmp, ignore_errors=True))
-        raise
-    _point_latest(out_root, final)
-    return final
+    marks.append(("files written", time.perf_counter()))
+    return folder.final
+
+
+class StampedFolder:
+    """``with StampedFolder(out_root) as tmp:`` write into ``tmp``, a hidden ``.incomplete-<stamp>-<host>-<pid>``
+    folder; when the block completes it is renamed to ``out_root/<stamp>`` (:attr:`final`; ``<stamp>-2``, ... if
+    taken) and ``out_root/latest`` points at it. On any error or interrupt, ``on_failure`` runs first (stopping
+    workers whose writes could land later), then the folder is removed, each step to its end despite a
+    further Ctrl-C. What killed writers left behind is removed on entry (:func:`remove_stale`). The report and
+    a sweep's folder are both written this way."""
+
+    def __init__(self, out_root, *, stamp: str | None = None, on_failure=None):
+        self.out_root = Path(out_root)
+        self.stamp = stamp or datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
+        self.on_failure = on_failure
+        self.final: Path | None = None
+
+    def __enter__(self) -> Path:
+        self.out_root.mkdir(parents=True, exist_ok=True)
+        remove_stale(self.out_root)
+        self.tmp = self.out_root / f"{_INCOMPLETE}{self.stamp}-{_owner()}"
+        shutil.rmtree(self.tmp, ignore_errors=True)
+        self.tmp.mkdir()
+        return self.tmp
+
+    def __exit__(self, exc_type, exc, tb):
+        try:
+            if exc_type is None:
+                self.final = _rename_into_place(self.tmp, self.out_root, self.stamp)
+        except BaseException:
+            self._clean_up()
+            raise
+        if exc_type is not None:
+            self._clean_up()
+            return False
+        _point_latest(self.out_root, self.final)
+        return False
+
+    def _clean_up(self) -> None:
+        _finish_despite_interrupts(self.on_failure or (lambda: None),
+                                   lambda: shutil.rmtree(self.tmp, ignore_errors=True))
 
 
 def _finish_despite_interrupts(*steps) -> None:

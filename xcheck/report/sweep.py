@@ -37,15 +37,10 @@ def write_sweep(spec: SweepSpec, records: list, root: Path, *, methods, timings:
                 wall_time: float, log: Path) -> Path:
     """Write the folder of a finished sweep under ``root`` (see the module docstring); returns it."""
     from ..history import History, utc_now
-    from .render import _finish_despite_interrupts, _INCOMPLETE, _owner, _point_latest, _rename_into_place, \
-        remove_stale
+    from .render import StampedFolder
 
-    remove_stale(root)
-    stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
-    tmp = root / f"{_INCOMPLETE}{stamp}-{_owner()}"
-    shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir()
-    try:
+    folder = StampedFolder(root)
+    with folder as tmp:
         by_id = {r["id"]: r for r in records}
         rows = tidy_rows(spec, by_id)
         write_text_atomic(tmp / "results.csv", csv_text(rows))
@@ -69,12 +64,7 @@ def write_sweep(spec: SweepSpec, records: list, root: Path, *, methods, timings:
         with History(tmp / "sweep.sqlite") as db:
             db.record_runs([dict(results=results, started=summary["created"], finished=now, report=None,
                                  environment=f"sweep:{spec.path.stem}", cells=cells)])
-        final = _rename_into_place(tmp, root, stamp)
-    except BaseException:
-        _finish_despite_interrupts(lambda: shutil.rmtree(tmp, ignore_errors=True))
-        raise
-    _point_latest(root, final)
-    return final
+    return folder.final
 
 
 def _summary(spec, records, methods, timings, ran, reused, wall_time) -> dict:
