@@ -35,3 +35,13 @@ def test_bench_cli_writes_json_and_refuses_unknown_methods(tmp_path, capsys):
     assert {(r["method"], r["batch"]) for r in doc["results"]} == {("formulation-2", 1), ("formulation-2", 1000)}
     assert main(["bench", "--methods", "nonesuch"]) == 2
     assert "--methods: unknown method 'nonesuch'" in capsys.readouterr().err
+
+
+def test_bench_times_every_determination_method():
+    """Every method of xcheck.determination gets a row (solutions per second, one call on the whole stack)."""
+    from xcheck.bench import _determination_rows
+    from xcheck.determination import METHODS
+
+    rows = _determination_rows(500, 1)
+    assert [r["method"] for r in rows] == [f"{m} (determination)" for m in METHODS]
+    assert all(r["batch"] == 500 and r["solutions_per_second"] == r["steps_per_second"] > 0 for r in rows)

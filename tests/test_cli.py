@@ -105,6 +105,21 @@ def test_verdicts_are_as_expected(quick_report):
     assert agreement["passed"] and agreement["value"] < 1e-9
 
 
+def test_quick_report_has_the_determination_section(quick_report):
+    """The bundled [determination] of rax1-orbit-field and seed 002 reproduced are in the report: numbers in
+    results.json, a section and two figures in index.html."""
+    _, out = quick_report
+    folder = (out / "latest").resolve()
+    results = json.loads((folder / "results.json").read_text())
+    (data,) = results["determination"]
+    assert data["scenario"] == "rax1-orbit-field" and data["passed"] and results["seed002"]["passed"]
+    assert data["levels"][0]["methods"]["quest"]["max"] < 1e-13
+    html = (folder / "index.html").read_text()
+    assert "Attitude determination on rax1-orbit-field" in html and "Seed 002 reproduced" in html
+    for name in ("error", "approach"):
+        assert (folder / "plots" / f"rax1-orbit-field-determination-{name}.png").is_file()
+
+
 def test_quick_report_numbers_match_the_golden_copy(quick_report):
     """Truth: the quick report as of issue 8 (tests/data/quick-report.json); refactors must not move a number
     beyond round-off (tolerances in tests/golden.py)."""

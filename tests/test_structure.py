@@ -12,7 +12,7 @@ import xcheck
 PACKAGE = Path(xcheck.__file__).resolve().parent
 #: The core: mathematics, integrators, references, metrics, fields (docs/architecture.md).
 CORE = ["rotations", "seeds", "body", "trajectory", "fields", "integrators", "reference", "metrics", "versions",
-        "_jit"]
+        "_jit", "determination", "seed002"]
 
 
 def module_name(path: Path) -> str:

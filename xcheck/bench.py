@@ -8,7 +8,9 @@ calls; a runner with a batch path (``run_batch``) also on 10 000 perturbed gyros
 (body-steps per second). An engine module may add rows of its own (``bench_extras``: MuJoCo's bare
 ``mj_step`` loop). Sweep cells per second (``xcheck sweep``'s unit of work, rows with ``cells_per_second``):
 a chunk of 10 torque-free gyroscope cells from random attitudes, one step dt = 1/1024 s, each a whole cell
-(model, exact reference, run, errors), ``lie-rkmk4`` batched and ``mujoco-rk4`` one cell at a time.
+(model, exact reference, run, errors), ``lie-rkmk4`` batched and ``mujoco-rk4`` one cell at a time. Static
+attitude determination (rows with ``solutions_per_second``): 100 000 random two-observation problems solved in
+one call by each method of :mod:`xcheck.determination`.
 ``--json PATH`` writes ``{"schema": "xcheck.bench/1", "versions": ..., "results": [...]}``
 with rows ``{engine, method, scenario, batch, steps_per_second}``. For an adaptive method (``scipy-rk45``) a
 "step" is a point of the output grid: the figure is how fast it delivers the same trajectory.
@@ -86,6 +88,11 @@ def run_bench(*, repeat: int = 3, batch: int = 10_000, quick: bool = False, meth
                          "cells_per_second": cells / seconds})
             if progress:
                 progress(rows[-1])
+    if not methods:
+        for row in _determination_rows(10_000 if quick else 100_000, repeat):
+            rows.append(row)
+            if progress:
+                progress(row)
     for engine in ENGINES.values():
         if not any(r.engine == engine.name for r in runners):
             continue
@@ -115,10 +122,32 @@ def _sweep_cells(method: str, duration: float, repeat: int, cells: int = 10) -> 
     return cells, _best(once, repeat)
 
 
+def _determination_rows(n: int, repeat: int) -> list[dict]:
+    """Static attitude determination (:mod:`xcheck.determination`): ``n`` random two-observation problems
+    (noisy directions of random attitudes) solved in one call per method; a "step" is one solution."""
+    from .determination import METHODS
+    from .rotations import quat_to_dcm
+
+    rng = np.random.default_rng(0)
+    q = rng.standard_normal((n, 4))
+    r = rng.standard_normal((n, 2, 3))
+    r /= np.linalg.norm(r, axis=-1, keepdims=True)
+    b = np.einsum("nji,nkj->nki", quat_to_dcm(q), r) + 1e-3 * rng.standard_normal((n, 2, 3))
+    w = np.array([0.5, 0.5])
+    rows = []
+    for name, solve in METHODS.items():
+        solve(b[:2], r[:2], w)  # compiled code loaded before the timing
+        seconds = _best(lambda: solve(b, r, w), repeat)
+        rows.append({"engine": "xcheck", "method": f"{name} (determination)", "scenario": "random 2-vector problems",
+                     "batch": n, "steps_per_second": n / seconds, "solutions_per_second": n / seconds})
+    return rows
+
+
 def format_rows(rows) -> str:
     lines = [f"{'engine':8s} {'method':28s} {'scenario':24s} {'batch':>6s} {'steps/s':>10s}"]
     for r in rows:
-        cells = f"  ({r['cells_per_second']:.1f} cells/s)" if "cells_per_second" in r else ""
+        cells = (f"  ({r['cells_per_second']:.1f} cells/s)" if "cells_per_second" in r else
+                 "  (solutions/s)" if "solutions_per_second" in r else "")
         lines.append(f"{r['engine']:8s} {r['method']:28s} {r['scenario']:24s} {r['batch']:6d} "
                      f"{r['steps_per_second']:10.3g}{cells}")
     return "\n".join(lines)

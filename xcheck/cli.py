@@ -254,7 +254,7 @@ def _cmd_report(args) -> int:
     studies, folder = _write_report(args)
     for st in studies:
         _print_study(st)
-    passed = all(st.passed for st in studies)
+    passed = all(st.passed for st in studies) and args.determination_passed
     print(f"\nreport: {folder}/index.html ({'PASSED' if passed else 'FAILED'}); wall time "
           f"{time.perf_counter() - t0:.1f} s")
     return EXIT_OK if passed else EXIT_CHECK_FAILED
@@ -300,6 +300,7 @@ def _write_report(args, sections=None, bench=None):
         def draw(study):  # a scenario's figures, drawn by a worker as soon as its studies are in
             figures[study.name] = pool.submit(draw_figures, study.data, study.series, args.quick)
 
+        determinations = _start_determinations(scenarios, pool)
         studies = run_studies(scenarios, quick=args.quick, progress=progress, pool=pool, workers=args.workers,
                               on_study=draw if pool is not None else None)
         marks.append(("studies", time.perf_counter()))
@@ -309,13 +310,56 @@ def _write_report(args, sections=None, bench=None):
             bench = run_bench(quick=args.quick, repeat=1)
         folder = write_report(studies, args.out, throughput=throughput_rows(studies) + (bench or []), wall_time=time.perf_counter() - t0,
                               quick=args.quick, pool=pool, figures=figures,
-                              trajectories=getattr(args, "trajectories", False), marks=marks, sections=sections)
+                              trajectories=getattr(args, "trajectories", False), marks=marks,
+                              sections=_with_determinations(determinations, sections, args))
         args.written = folder  # an interrupt from here on must not say "no report was written"
     marks.append(("workers stopped", time.perf_counter()))
     if getattr(args, "timings", False):
         print("where the time went: " + ", ".join(f"{what} {b - a:.2f} s" for (_, a), (what, b)
                                                  in zip(marks, marks[1:])), file=sys.stderr)
     return studies, folder
+
+
+def _start_determinations(scenarios, pool) -> dict:
+    """Each scenario's ``[determination]`` study with its figures, started in the pool (or run here)."""
+    from .report.determination import determination_job
+
+    return {sc.name: pool.submit(determination_job, sc) if pool is not None else determination_job(sc)
+            for sc in scenarios if sc.determination is not None}
+
+
+def _with_determinations(determinations, sections, args):
+    """The report's ``sections``: the determination studies and seed 002 reproduced (when any scenario has a
+    ``[determination]``), then ``sections``' own (the nightly's History). Their verdict joins the report's and
+    is kept in ``args.determination_passed`` for the exit code."""
+    args.determination_passed = True
+    if not determinations:
+        return sections
+
+    def all_sections(results):
+        from .report.determination import determination_blocks, seed002_blocks
+        from .seed002 import reproduce
+
+        blocks, figures = [], []
+        results["determination"] = []
+        for future in determinations.values():
+            data, drawn = future.result() if hasattr(future, "result") else future
+            results["determination"].append(data)
+            blocks += determination_blocks(data, [(file, caption) for file, caption, _ in drawn])
+            figures += drawn
+        rep = reproduce()
+        results["seed002"] = {"passed": rep["passed"]}
+        blocks += seed002_blocks(rep)
+        args.determination_passed = rep["passed"] and all(d["passed"] for d in results["determination"])
+        results["passed"] = results["passed"] and args.determination_passed
+        summary = None
+        if sections is not None:
+            summary, more, drawn = sections(results)
+            blocks += more
+            figures += drawn
+        return summary, blocks, figures
+
+    return all_sections
 
 
 def _cmd_nightly(args) -> int:
@@ -400,7 +444,7 @@ def _cmd_nightly(args) -> int:
         raise HistoryError(f"{exc}; the report {folder} is complete") from None
     for st in studies:
         _print_study(st)
-    passed = all(st.passed for st in studies)
+    passed = all(st.passed for st in studies) and args.determination_passed
     regressions = [c for cmp in comparisons for c in cmp.regressions]
     print()
     for cmp in comparisons:
@@ -471,6 +515,75 @@ def _cmd_sweep(args) -> int:
         print(f"{out.reused} cells from the earlier run (--resume)")
     print(f"sweep: {out.folder}/index.html; {passed} of {n} cells passed every check")
     return EXIT_OK if passed == n else EXIT_CHECK_FAILED
+
+
+def _cmd_determine(args) -> int:
+    """Seed 002's tables reproduced (``--seed002``), or a scenario's attitude-determination study alone."""
+    from .report.io import check_output_dir, check_output_file
+
+    if args.seed002 == bool(args.scenario):
+        raise UsageError("give a SCENARIO (its [determination] study) or --seed002 (the seed's tables), one of them")
+    if args.seed002:
+        from .seed002 import report_lines, reproduce
+
+        rep = reproduce()
+        print("\n".join(report_lines(rep)))
+        return EXIT_OK if rep["passed"] else EXIT_CHECK_FAILED
+    from .scenario import resolve_scenario
+    from .sensing import run_determination
+    from .sensors import DEFAULT_SPEC
+
+    scenario = resolve_scenario(args.scenario)
+    if args.json:
+        check_output_file(args.json, "--json", suffixes=(".json",))
+    if args.out:
+        check_output_dir(args.out, "--out")
+    if scenario.determination is None:
+        print(f"{scenario.name} has no [determination] table: the defaults (see the README)", file=sys.stderr)
+    spec = scenario.determination or DEFAULT_SPEC
+    data, series = run_determination(scenario, spec)
+    for line in determination_lines(data):
+        print(line)
+    if args.json:
+        from .report.io import write_json_atomic
+
+        write_json_atomic(Path(args.json), data)
+    if args.out:
+        from .report.determination import draw_determination, write_determination
+
+        folder = write_determination(data, draw_determination(data, series), args.out)
+        args.written = folder
+        print(f"report: {folder}/index.html")
+    return EXIT_OK if data["passed"] else EXIT_CHECK_FAILED
+
+
+def determination_lines(data: dict) -> list[str]:
+    """A determination study as text: the statistics per noise level and method, the checks, the approach."""
+    tr = data["truth"]
+    lines = [f"attitude determination on {data['scenario']}: truth {tr['method']} every {tr['dt']:g} s "
+             f"({tr['samples']} samples); magnetometer: {data['magnetometer']}",
+             f"sun direction {[round(x, 4) for x in data['sun_direction']]}, {data['angle_deg']['min']:.1f}-"
+             f"{data['angle_deg']['max']:.1f} deg from the field; noise seed {data['seed']}", "",
+             f"{'noise':16s} {'method':9s} {'RMS [rad]':>10s} {'predicted':>10s} {'ratio':>6s} {'max [rad]':>10s} "
+             f"{'near-deg.':>9s} {'solutions/s':>11s}"]
+    for lv in data["levels"]:
+        for m, s in lv["methods"].items():
+            pred = "-" if lv["predicted_rms"] is None else f"{lv['predicted_rms']:.3e}"
+            ratio = "-" if s["ratio_to_predicted"] is None else f"{s['ratio_to_predicted']:.3f}"
+            rate = f"{s['solutions_per_second']:.3g}" if s["solutions_per_second"] else "-"
+            lines.append(f"{lv['name']:16s} {m:9s} {s['rms']:10.3e} {pred:>10s} {ratio:>6s} {s['max']:10.3e} "
+                         f"{s['near_degenerate']:9d} {rate:>11s}")
+    ap = data.get("approach")
+    if ap:
+        lines += ["", f"approach ({ap['level']}): RMS error [rad] against the angle between the two directions",
+                  f"{'angle [deg]':>11s} {'predicted':>10s} " + " ".join(f"{m:>10s}" for m in ap["methods"])]
+        for i, a in enumerate(ap["angles_deg"]):
+            lines.append(f"{a:11g} {ap['predicted_rms'][i]:10.3e} "
+                         + " ".join(f"{v['rms'][i]:10.3e}" for v in ap["methods"].values()))
+    failed = [c for c in data["checks"] if not c["passed"]]
+    lines += ["", f"checks: {len(data['checks']) - len(failed)} of {len(data['checks'])} passed"]
+    lines += [f"  FAILED {c['name']}: {c['text']}" for c in failed]
+    return lines
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -548,6 +661,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --executor dask: the scheduler (tcp://host:8786); default a LocalCluster of --jobs")
     p.set_defaults(func=_cmd_sweep)
 
+    p = sub.add_parser("determine", help="static attitude determination: seed 002's tables, or a scenario's "
+                                         "magnetometer + sun sensor study on its MuJoCo run")
+    p.add_argument("scenario", nargs="?", help="a bundled name or a scenario .toml (its [determination] table)")
+    p.add_argument("--seed002", action="store_true", help="print seed 002's tables beside xcheck's")
+    p.add_argument("--json", metavar="PATH", help="write the study's results as JSON")
+    p.add_argument("--out", metavar="DIR", help="also write a report (index.html, figures) into DIR/<time>/")
+    p.set_defaults(func=_cmd_determine)
+
     p = sub.add_parser("bench", help="steps per second of every method, ours and the engines'")
     p.add_argument("--json", metavar="PATH", help="write the rows as JSON (schema xcheck.bench/1)")
     p.add_argument("--quick", action="store_true", help="shorter runs, a smaller batch")
@@ -584,6 +705,7 @@ def _run(args) -> int:
     """``args.func(args)`` with every failure a user can cause turned into a message and an exit code."""
     from concurrent.futures.process import BrokenProcessPool
 
+    from .determination import DeterminationError
     from .history import HistoryError
     from .models import ModelError
     from .report.io import OutputPathError
@@ -601,7 +723,7 @@ def _run(args) -> int:
         print("xcheck: error: a worker process died (killed from outside, or out of memory); no report was written",
               file=sys.stderr)
         return EXIT_BUG
-    except (ScenarioError, ModelError, UsageError, OutputPathError, HistoryError) as exc:
+    except (ScenarioError, ModelError, UsageError, OutputPathError, HistoryError, DeterminationError) as exc:
         print(f"xcheck: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt as exc:

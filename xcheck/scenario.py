@@ -97,6 +97,8 @@ class Scenario:
     #: principal moments [kg m^2] replacing the model's, along its principal axes in MuJoCo's order
     #: (``body_inertia``); None: the model's own. Set by a sweep's inertia axes (:mod:`xcheck.sweep`).
     inertia: tuple | None = None
+    #: the [determination] table (:class:`xcheck.sensing.DeterminationSpec`); None: the scenario has none
+    determination: object = None
 
 
 class _Reader:
@@ -189,7 +191,7 @@ class _Reader:
             self.fail(unknown[0], f"unknown key (expected one of: {', '.join(sorted(self.used))})")
 
 
-_TOP_KEYS = ("name", "description", "model", "duration", "initial", "torque", "study", "checks")
+_TOP_KEYS = ("name", "description", "model", "duration", "initial", "torque", "study", "checks", "determination")
 
 
 def load_scenario(path) -> Scenario:
@@ -307,10 +309,18 @@ def load_scenario(path) -> Scenario:
             ck.fail("expected_to_fail", f"{m!r} is not among the [study] methods {methods}")
     ck.finish()
 
+    determination = None
+    if "determination" in data:
+        from .sensors import read_determination
+
+        determination = read_determination(_Reader(path, top.get("determination", "table"), "determination"),
+                                           duration)
+
     scenario = Scenario(name=name, path=path, model=model, duration=duration, q0=q0, omega0=omega0,
                         sequence=sequence, description=description, torque=torque, steps=steps,
                         quick_steps=quick_steps, methods=methods, reference=reference,
-                        reference_method=reference_method, reference_dt=reference_dt, checks=checks)
+                        reference_method=reference_method, reference_dt=reference_dt, checks=checks,
+                        determination=determination)
     # the model must load, and the torque must be buildable for this duration
     from .models import ModelError, load_body
 

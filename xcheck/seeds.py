@@ -29,6 +29,12 @@ __all__ = [
     "seed002_matrix_to_dcm",
     "seed004_eq179",
     "SEED004_P0_PRINTED",
+    "SEED002_BODY",
+    "SEED002_V4B_PRINTED",
+    "SEED002_REFERENCE",
+    "SEED002_TRIAD",
+    "SEED002_Q_METHOD",
+    "SEED002_WEIGHT_SEARCH",
 ]
 
 #: Seed 004 eq. 178, the initial Euler parameters the thesis integrated (as printed, 4 digits).
@@ -77,3 +83,36 @@ def seed004_eq179(sigma, theta, psi):
                      cs * st * cp + ss * ct * sp,
                      cs * ct * sp - ss * st * cp], axis=-1)
 
+
+
+# --------------------------------------------------------------------------------------------------------
+# Seed 002's data and printed results (eq. 0.1-0.2, 1.6-1.21, 2.7-2.14 and the MATLAB listing §3-4)
+# --------------------------------------------------------------------------------------------------------
+#: The body-frame observations v1b..v4b as the MATLAB listing types them (§4.1 line 9: v4b z = -0.2884).
+SEED002_BODY = np.array([[0.8273, 0.5541, -0.0920],
+                         [-0.8285, 0.5522, -0.0955],
+                         [0.2155, 0.5522, 0.8022],
+                         [0.5570, -0.7442, -0.2884]])
+#: The problem statement's v4b (eq. 0.1), which prints z = -0.2882.
+SEED002_V4B_PRINTED = np.array([0.5570, -0.7442, -0.2882])
+#: The reference (inertial) directions v1i..v4i (eq. 0.2).
+SEED002_REFERENCE = np.array([[-0.1517, -0.9669, 0.2050],
+                              [-0.8393, 0.4494, -0.3044],
+                              [-0.0886, -0.5856, -0.8000],
+                              [0.8814, -0.0303, 0.5202]])
+#: TRIAD with observations (1, k), k = 2, 3, 4: R_bi (inertial -> body), the quaternion scalar LAST as
+#: printed (the listing's q4 = +1/2 sqrt(1 + tr R) > 0), the loss with w = 1/2 each (eq. 1.6-1.21, §3).
+SEED002_TRIAD = {
+    2: dict(R=[[0.4156, -0.8551, 0.3100], [-0.8339, -0.4943, -0.2455], [0.3631, -0.1566, -0.9185]],
+            q=[-0.8409, 0.5022, -0.2001, 0.0264], J=1.8298e-7),
+    3: dict(R=[[0.4167, -0.8563, 0.3051], [-0.8370, -0.4924, -0.2387], [0.3546, -0.1559, -0.9219]],
+            q=[-0.8413, 0.5032, -0.1961, 0.0246], J=1.1146e-5),
+    4: dict(R=[[0.4279, -0.8736, 0.2317], [-0.8750, -0.4646, -0.1359], [0.2263, -0.1446, -0.9633]],
+            q=[0.8449, -0.5174, 0.1355, 0.0026], J=0.0014),
+}
+#: The q-method with w = 1/4 each (eq. 2.7-2.10): quaternion scalar LAST, R_bi, loss.
+SEED002_Q_METHOD = dict(w=[0.25, 0.25, 0.25, 0.25], q=[-0.8498, 0.4975, -0.1741, 0.0060],
+                        R=[[0.4443, -0.8477, 0.2899], [-0.8435, -0.5048, -0.1834], [0.3018, -0.1630, -0.9393]],
+                        J=0.0019)
+#: The report's weight search (eq. 2.11-2.14): weights and the loss it printed for them.
+SEED002_WEIGHT_SEARCH = dict(w=[0.97, 0.01, 0.01, 0.01], J=8.9985e-5, w_one=[1.0, 0.0, 0.0, 0.0], J_one=5.0845e-32)

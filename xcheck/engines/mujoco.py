@@ -246,3 +246,26 @@ def bench_extras(contexts, dt, nsteps, repeat):
             step(m, d)
         best = min(best, time.perf_counter() - t0)
     return [("mujoco-rk4 (mj_step loop)", "gyroscope-nonsingular", best, nsteps)]
+
+
+def magnetometer_readings(model, q, B_world) -> np.ndarray:
+    """MuJoCo's ``<magnetometer>`` on a body's attitudes: the MJCF with a site at the body's origin (its frame)
+    carrying a magnetometer, ``opt.magnetic = B_world`` [T] (MuJoCo's field is uniform), and each attitude
+    ``q`` (T, 4) set and ``mj_forward`` run. Returns the readings (T, 3) [T] in body components."""
+    _, body = _prepare(model)
+    spec = mujoco.MjSpec.from_file(str(body.path))
+    site = spec.bodies[body.body_id].add_site(name="xcheck_determination_magnetometer")
+    spec.add_sensor(name="xcheck_determination_magnetometer", type=mujoco.mjtSensor.mjSENS_MAGNETOMETER,
+                    objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site.name)
+    spec.option.magnetic = np.asarray(B_world, dtype=float)
+    m = spec.compile()
+    sensor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "xcheck_determination_magnetometer")
+    adr = m.sensor_adr[sensor]
+    d = mujoco.MjData(m)
+    out = np.empty((len(q), 3))
+    qa = body.qpos_adr
+    for k, qk in enumerate(np.asarray(q, dtype=float)):
+        d.qpos[qa + 3:qa + 7] = qk
+        mujoco.mj_forward(m, d)
+        out[k] = d.sensordata[adr:adr + 3]
+    return out

@@ -141,6 +141,10 @@ class Field:
     def check_span(self, t_end: float) -> None:
         """Raise ValueError if the field is not defined on ``[0, t_end]``."""
 
+    def strength(self, t) -> np.ndarray:
+        """Field strength [A/m] in the components of :attr:`frame` at times ``t`` (...,) -> (..., 3)."""
+        raise NotImplementedError(f"{type(self).__name__} does not evaluate its field outside the kernel")
+
     def describe(self) -> str:
         return self.name
 
@@ -178,10 +182,12 @@ class BodyFieldTable(Field):
             raise ValueError(f"{self.source}: the field table covers {t0:g} to {t1:g} s; the run needs 0 to "
                              f"{t_end:g} s (times outside a table are an error, not an extrapolation)")
 
-    def H_body(self, t) -> np.ndarray:
+    def strength(self, t) -> np.ndarray:
         """Field strength [A/m] in the table's components at times ``t`` (...,) -> (..., 3)."""
         t = np.asarray(t, dtype=float)
         return np.stack([np.interp(t, self.T[:, 0], self.T[:, k]) for k in (1, 2, 3)], axis=-1)
+
+    H_body = strength
 
     def describe(self) -> str:
         return f"body-frame field table {self.source} ({self.T.shape[0]} rows, {self.T[0, 0]:g}-{self.T[-1, 0]:g} s)"
@@ -212,6 +218,9 @@ class UniformField(Field):
 
     def slot_values(self):
         return dict(zip(self.slots, self.H_world.tolist()))
+
+    def strength(self, t) -> np.ndarray:
+        return np.broadcast_to(self.H_world, np.shape(t) + (3,)).copy()
 
     def describe(self) -> str:
         return f"uniform inertial field {self.H_world.tolist()} A/m"

@@ -98,6 +98,8 @@ class OrbitDipoleField(Field):
         out = np.array([kernel.orbit_dipole_world(p, float(tt)) for tt in t.ravel()])
         return out.reshape(t.shape + (3,))
 
+    strength = H_world
+
     def describe(self) -> str:
         return (f"dipole Earth field along a circular orbit ({self.altitude_km:g} km, {self.inclination_deg:g}°, "
                 f"RAAN {self.raan_deg:g}°, u0 {self.arg_latitude_deg:g}°)")
