@@ -142,7 +142,7 @@ def seed002_blocks(rep: dict) -> list:
             Para("Static attitude determination on the seed's four vector pairs (the MATLAB listing's v4b z = −0.2884; "
                  "the problem statement's −0.2882 moves R₁₄ by 2e−4, beyond the print). Every printed number is "
                  "matched to half a unit of its last digit. The seed's w = (1, 0, 0, 0) is refused: one direction "
-                 "fixes the attitude only up to a rotation about it. `xcheck determine --seed002` prints the tables."),
+                 "fixes the attitude only up to a rotation about it. xcheck determine --seed002 prints the tables."),
             Table(["quantity", "seed → xcheck", "match"], rows)]
 
 
