@@ -368,12 +368,18 @@ _UNTURN = tuple(np.block([[np.zeros((1, 1)), -np.eye(3)[i][None, :]], [np.eye(3)
                 for i in range(3))
 
 
-def _quest_quaternion(B, lam):
-    """Shuster's optimal quaternion for ``lam`` (QUEST eq. 66-69), ours (scalar first, unnormalised)."""
+def _quest_terms(B):
+    """S, Z, sigma (seed 002 eq. 2.4), S², kappa = tr adj S and Delta = det S: what QUEST's characteristic
+    polynomial and closed form are made of."""
     S, Z, sigma = _szs(B)
     S2 = S @ S
-    kappa = 0.5 * (np.trace(S, axis1=-2, axis2=-1) ** 2 - np.trace(S2, axis1=-2, axis2=-1))  # tr adj S
-    delta = np.linalg.det(S)
+    kappa = 0.5 * (np.trace(S, axis1=-2, axis2=-1) ** 2 - np.trace(S2, axis1=-2, axis2=-1))
+    return S, Z, sigma, S2, kappa, np.linalg.det(S)
+
+
+def _quest_quaternion(terms, lam):
+    """Shuster's optimal quaternion for ``lam`` (QUEST eq. 66-69), ours (scalar first, unnormalised)."""
+    S, Z, sigma, S2, kappa, delta = terms
     alpha = lam * lam - sigma * sigma + kappa
     beta = lam - sigma
     gamma = (lam + sigma) * alpha - delta
@@ -390,10 +396,8 @@ def quest(b, r, w=None, *, near_angle_deg: float = NEAR_ANGLE_DEG, max_iter: int
     """
     b, r, w = _observations(b, r, w)
     B = attitude_profile(b, r, w)
-    S, Z, sigma = _szs(B)
-    S2 = S @ S
-    kappa = 0.5 * (np.trace(S, axis1=-2, axis2=-1) ** 2 - np.trace(S2, axis1=-2, axis2=-1))
-    delta = np.linalg.det(S)
+    terms = _quest_terms(B)
+    S, Z, sigma, S2, kappa, delta = terms
     a = sigma * sigma - kappa
     bb = sigma * sigma + np.einsum("...i,...i->...", Z, Z)
     c = delta + np.einsum("...i,...ij,...j->...", Z, S, Z)
@@ -418,10 +422,10 @@ def quest(b, r, w=None, *, near_angle_deg: float = NEAR_ANGLE_DEG, max_iter: int
             break
     # [X, gamma] is the scalar column of adj(lam I - K) = p'(lam) q q^T: its length is |p'(lam) q4|, the same
     # p'(lam) in every turned frame. Keep the longest: |q4'| >= 1/2 in one of the four frames.
-    q = _quest_quaternion(B, lam)
+    q = _quest_quaternion(terms, lam)
     size = np.sum(q * q, axis=-1)
     for turn, unturn in zip(_TURNS, _UNTURN):
-        qt = _quest_quaternion(B * turn, lam)
+        qt = _quest_quaternion(_quest_terms(B * turn), lam)
         st = np.sum(qt * qt, axis=-1)
         better = st > size
         q = np.where(better[..., None], np.einsum("ij,...j->...i", unturn, qt), q)
@@ -441,16 +445,15 @@ def svd_method(b, r, w=None, *, near_angle_deg: float = NEAR_ANGLE_DEG) -> Estim
                    near_angle_deg)
 
 
-#: name -> function of (b, r, w): every method as a solver of the same stacked problem (TRIAD takes the
-#: first two observations, the first as its better sensor).
-METHODS = {
-    "triad": lambda b, r, w=None, **kw: triad(np.asarray(b)[..., 0, :], np.asarray(b)[..., 1, :],
-                                              np.asarray(r)[..., 0, :], np.asarray(r)[..., 1, :],
-                                              w=None if w is None else np.asarray(w)[..., :2], **kw),
-    "q-method": q_method,
-    "quest": quest,
-    "svd": svd_method,
-}
+def _triad_stacked(b, r, w=None, **kw) -> Estimate:
+    """TRIAD on the first two observations of ``(..., N, 3)`` stacks, the first as its better sensor."""
+    b, r = _array(b, "b"), _array(r, "r")
+    w = None if w is None else np.asarray(w, dtype=float)[..., :2]
+    return triad(b[..., 0, :], b[..., 1, :], r[..., 0, :], r[..., 1, :], w=w, **kw)
+
+
+#: name -> solver of the stacked problem ``(b, r, w)``.
+METHODS = {"triad": _triad_stacked, "q-method": q_method, "quest": quest, "svd": svd_method}
 
 
 def determine(method: str, b, r, w=None, **kw) -> Estimate:

@@ -54,6 +54,13 @@ def _quat_match(q_ours, printed):
     return ql, _worst(ql, printed)
 
 
+def _residuals(A, b, r) -> np.ndarray:
+    """``1/2 |b_k - A r_k|^2`` of each observation (directions normalised): eq. 1.12's terms, unweighted."""
+    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
+    r = r / np.linalg.norm(r, axis=-1, keepdims=True)
+    return 0.5 * np.sum((b - r @ A.T) ** 2, axis=-1)
+
+
 def reproduce() -> dict:
     """Every printed number of seed 002 beside ours (plain data: the CLI prints it, a test checks it)."""
     b, r = SEED002_BODY, SEED002_REFERENCE
@@ -96,9 +103,7 @@ def reproduce() -> dict:
     out["weight_search"] = dict(
         w=SEED002_WEIGHT_SEARCH["w"], J=float(ws.loss), J_printed=SEED002_WEIGHT_SEARCH["J"],
         J_match=_worst(ws.loss, SEED002_WEIGHT_SEARCH["J"]),
-        residuals=[float(x) for x in 0.5 * np.sum((b / np.linalg.norm(b, axis=1)[:, None]
-                                                    - (fixed.A @ (r / np.linalg.norm(r, axis=1)[:, None]).T).T) ** 2,
-                                                   axis=1)],
+        residuals=[float(x) for x in _residuals(fixed.A, b, r)],
         w_one=SEED002_WEIGHT_SEARCH["w_one"], J_one_printed=SEED002_WEIGHT_SEARCH["J_one"], refusal=refusal)
     out["passed"] = bool(all(row[key][1] for row in out["triad"] for key in ("R_match", "q_match", "J_match"))
                          and all(row[key][1] for row in out["q_method"].values()
