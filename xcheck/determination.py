@@ -448,6 +448,8 @@ def svd_method(b, r, w=None, *, near_angle_deg: float = NEAR_ANGLE_DEG) -> Estim
 def _triad_stacked(b, r, w=None, **kw) -> Estimate:
     """TRIAD on the first two observations of ``(..., N, 3)`` stacks, the first as its better sensor."""
     b, r = _array(b, "b"), _array(r, "r")
+    if b.ndim < 2 or b.shape != r.shape or b.shape[-2] < 2:
+        _vectors(b, r)  # its refusal
     w = None if w is None else np.asarray(w, dtype=float)[..., :2]
     return triad(b[..., 0, :], b[..., 1, :], r[..., 0, :], r[..., 1, :], w=w, **kw)
 
