@@ -1,15 +1,16 @@
-"""Every method of the cross-check, ours and MuJoCo's, as a runner with one signature:
-``runner.run(context, dt) -> Trajectory``."""
+"""Every method of the cross-check, ours and the engines' (MuJoCo's; Basilisk's when it is installed), as a
+runner with one signature: ``runner.run(context, dt) -> Trajectory``."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Callable
 
+from .engines import available
 from .integrators import METHODS, integrate, integrate_batch
 from .trajectory import Trajectory
 
-__all__ = ["Runner", "RUNNERS", "RunContext"]
+__all__ = ["Runner", "RUNNERS", "RunContext", "BASILISK_METHODS"]
 
 
 @dataclass
@@ -45,6 +46,17 @@ class Runner:
     agreement: bool = False
     line_style: str = "-"
     run_batch: Callable | None = None
+    #: ``(torque table of a scenario, or None) -> (order, why)``: the order this method can reach with that
+    #: torque when it is lower than ``expected_order`` (an engine that holds its input over a step); None: always
+    #: ``expected_order``.
+    order_with: Callable | None = None
+
+    def order_for(self, torque: dict | None) -> tuple[int | None, str | None]:
+        """The order expected of this method with a scenario's torque, and why when it is not the method's own."""
+        if self.order_with is None or self.expected_order is None:
+            return self.expected_order, None
+        order, why = self.order_with(torque)
+        return (self.expected_order, None) if order is None or order >= self.expected_order else (order, why)
 
 
 def _ours(name):
@@ -70,6 +82,30 @@ def _mujoco(integrator):
     return run
 
 
+def _basilisk(integrator):
+    def run(ctx: RunContext, dt: float) -> Trajectory:
+        from .engines.basilisk import simulate
+
+        return simulate(ctx.inertia, integrator=integrator, q0=ctx.q0, omega0=ctx.omega0, dt=dt,
+                        duration=ctx.duration, torque=ctx.torque)
+    return run
+
+
+def _basilisk_input_order(torque: dict | None):
+    """The order Basilisk's held inputs leave with a scenario's torque (see :mod:`xcheck.engines.basilisk`)."""
+    if torque is None or torque.get("kind") != "magnetic" or torque.get("field") == "uniform":
+        return None, None
+    return 2, ("Basilisk reads its inputs once per step: the field is written at each step's midpoint and held "
+               "over the step (a midpoint rule in time), so its order is 2 with this field")
+
+
+#: Basilisk's methods: registered when its package (the extra ``basilisk``) is installed.
+BASILISK_METHODS = {
+    "basilisk-rk4": (4, "Basilisk's RK4 on its hub (MRP attitude, torque through its own effectors)"),
+    "basilisk-rkf45": (None, "Basilisk's adaptive RKF45 inside each task step (its default tolerances)"),
+    "basilisk-rkf78": (None, "Basilisk's adaptive RKF78 inside each task step (its default tolerances)"),
+}
+
 RUNNERS: dict[str, Runner] = {
     name: Runner(name, "xcheck", m.expected_order, m.summary, _ours(name),
                  run_batch=_ours_batch(name) if m.kernel is not None else None)
@@ -83,3 +119,7 @@ RUNNERS.update({
         ("implicitfast", 1, "MuJoCo's implicitfast (no Coriolis derivatives)"),
     ]
 })
+if available("basilisk"):
+    RUNNERS.update({name: Runner(name, "basilisk", order, summary, _basilisk(name.removeprefix("basilisk-")),
+                                 agreement=(name == "basilisk-rk4"), line_style=":", order_with=_basilisk_input_order)
+                    for name, (order, summary) in BASILISK_METHODS.items()})

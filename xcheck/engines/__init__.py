@@ -15,6 +15,15 @@ class Engine:
     module: str  # the module with ``simulate`` (imported only when the engine runs)
 
 
-ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco")}
+ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco"),
+           "basilisk": Engine("basilisk", "bsk", "xcheck.engines.basilisk")}
+
+
+def available(engine: str) -> bool:
+    """Whether an engine's package is installed (MuJoCo always is; Basilisk is the optional extra ``basilisk``),
+    found without importing it."""
+    import importlib.util
+
+    return importlib.util.find_spec({"mujoco": "mujoco", "basilisk": "Basilisk"}[engine]) is not None
 #: engine name -> the distribution whose version a report records
 ENGINE_PACKAGES = {name: engine.package for name, engine in ENGINES.items()}
