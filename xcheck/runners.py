@@ -50,6 +50,9 @@ class Runner:
     #: torque when it is lower than ``expected_order`` (an engine that holds its input over a step); None: always
     #: ``expected_order``.
     order_with: Callable | None = None
+    #: the method of ours that is the same scheme (an engine's RK4 on its own attitude coordinates): its
+    #: trajectory partner in a study, and the report's explanation of the engine's error
+    twin: str | None = None
 
     def order_for(self, torque: dict | None) -> tuple[int | None, str | None]:
         """The order expected of this method with a scenario's torque, and why when it is not the method's own."""
@@ -111,7 +114,8 @@ RUNNERS: dict[str, Runner] = {
                  run_batch=_ours_batch(name) if m.kernel is not None else None)
     for name, m in METHODS.items()}
 RUNNERS.update({
-    f"mujoco-{i}": Runner(f"mujoco-{i}", "mujoco", order, summary, _mujoco(i), agreement=(i == "rk4"), line_style="--")
+    f"mujoco-{i}": Runner(f"mujoco-{i}", "mujoco", order, summary, _mujoco(i), agreement=(i == "rk4"), line_style="--",
+                          twin="lie-rkmk4" if i == "rk4" else None)
     for i, order, summary in [
         ("rk4", 4, "MuJoCo's RK4 (torque in the control callback at every stage)"),
         ("euler", 1, "MuJoCo's semi-implicit Euler"),
@@ -121,5 +125,6 @@ RUNNERS.update({
 })
 if available("basilisk"):
     RUNNERS.update({name: Runner(name, "basilisk", order, summary, _basilisk(name.removeprefix("basilisk-")),
-                                 agreement=(name == "basilisk-rk4"), line_style=":", order_with=_basilisk_input_order)
+                                 agreement=(name == "basilisk-rk4"), line_style=":", order_with=_basilisk_input_order,
+                                 twin="mrp-rk4" if name == "basilisk-rk4" else None)
                     for name, (order, summary) in BASILISK_METHODS.items()})

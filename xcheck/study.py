@@ -74,7 +74,8 @@ def default_methods(scenario: Scenario) -> list[str]:
 
 def comparison_partner(scenario: Scenario, method: str, methods) -> str | None:
     """Which of our methods an engine's method is compared with directly, trajectory against trajectory at
-    the same step (no reference needed): one of the same order, the scenario's ``reference_method`` first,
+    the same step (no reference needed): its twin (the same scheme: MuJoCo's RK4 and ``lie-rkmk4``, Basilisk's
+    and ``mrp-rk4``) when the study has it, else one of the same order, the scenario's ``reference_method`` first,
     then ``lie-rkmk4``; for an engine method of an order none of ours has (MuJoCo's first-order ones), our
     highest-order method, so that the difference measures the engine's own error. None for our methods, or
     when the study has none of ours to compare with."""
@@ -85,6 +86,8 @@ def comparison_partner(scenario: Scenario, method: str, methods) -> str | None:
             and m not in scenario.checks.get("expected_to_fail", ())]
     if not ours:
         return None
+    if runner.twin in ours:  # the same scheme as the engine's: their difference is the engine's own
+        return runner.twin
     preferred = sorted(ours, key=lambda m: (m != scenario.reference_method, m != "lie-rkmk4"))
     same = [m for m in preferred if RUNNERS[m].expected_order == runner.expected_order]
     return same[0] if same else max(preferred, key=lambda m: RUNNERS[m].expected_order)

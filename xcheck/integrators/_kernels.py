@@ -22,6 +22,8 @@ CF4          p_n(4), u(3) = 0, w(3)                  commutator-free Lie group m
 DCM          R(9, row-major), w(3)                   seed 000 eq. 1.7, §1.7.1
 GIBBS        q_ref(4), g(3), w(3)                    seed 000 §1.4.2 (chart re-centred when |g| > 1)
 ROTVEC       q_ref(4), phi(3), w(3)                  seed 000 §1.5.2 (chart re-centred when |phi| > pi)
+MRP          s(3), w(3)                              Schaub & Junkins (Basilisk's attitude: shadow set
+                                                     when |s| > 1 after each step)
 ===========  ======================================  =============================================
 
 How it is fast: numba compiles it (``cache=True``: once per user and release, into the folder of
@@ -702,6 +704,59 @@ GIBBS = declare(Scheme("gibbs", size=10, first=4, deriv=deriv_gibbs, before_step
                        encode=_enc_local, decode=_dec_local(rot.gibbs_to_quat), work=11))
 ROTVEC = declare(Scheme("rotvec", size=10, first=4, deriv=deriv_rotvec, before_step=recentre_rotvec,
                         encode=_enc_local, decode=_dec_local(rot.rotvec_to_quat), work=11))
+
+# ------------------------------------------------------------------------------------------------
+# MRP: the modified Rodrigues parameters, as Basilisk integrates its hub's attitude
+# ------------------------------------------------------------------------------------------------
+@jit
+def mrp_quat(s, out):
+    """The quaternion of MRP ``s`` (``w = (1 - |s|^2) / (1 + |s|^2)``, ``v = 2 s / (1 + |s|^2)``)."""
+    s2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2]
+    n = 1.0 + s2
+    out[0] = (1.0 - s2) / n
+    out[1] = 2.0 * s[0] / n
+    out[2] = 2.0 * s[1] / n
+    out[3] = 2.0 * s[2] / n
+
+
+@ijit
+def deriv_mrp(t, y, dy, I, Iinv, tk, tP, tT, work):
+    """``s' = 1/4 ((1 - |s|^2) I + 2 [s x] + 2 s s^T) w`` (Schaub & Junkins; xcheck.rotations.mrp_rate), the
+    kinematics Basilisk's hub integrates."""
+    s = y[0:3]
+    w = y[3:6]
+    s2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2]
+    sw = s[0] * w[0] + s[1] * w[1] + s[2] * w[2]
+    dy[0] = 0.25 * ((1.0 - s2) * w[0] + 2.0 * (s[1] * w[2] - s[2] * w[1]) + 2.0 * s[0] * sw)
+    dy[1] = 0.25 * ((1.0 - s2) * w[1] + 2.0 * (s[2] * w[0] - s[0] * w[2]) + 2.0 * s[1] * sw)
+    dy[2] = 0.25 * ((1.0 - s2) * w[2] + 2.0 * (s[0] * w[1] - s[1] * w[0]) + 2.0 * s[2] * sw)
+    tau, q = work[0:3], work[3:7]
+    if torque_needs_attitude(tk, tP):
+        mrp_quat(s, q)
+    torque_eval(tk, tP, tT, t, q, w, tau)
+    euler_equation(I, Iinv, tau, w, dy[3:6])
+    return OK
+
+
+@jit
+def shadow_mrp(y):
+    """The shadow set ``-s / |s|^2`` when ``|s| > 1`` (the same attitude; Basilisk switches after each step)."""
+    s2 = y[0] * y[0] + y[1] * y[1] + y[2] * y[2]
+    if s2 > 1.0:
+        y[0], y[1], y[2] = -y[0] / s2, -y[1] / s2, -y[2] / s2
+
+
+def _enc_mrp(q0, w0, seq):
+    q0 = np.where(q0[..., :1] < 0, -q0, q0)
+    return np.concatenate([rot.quat_to_mrp(q0), w0], axis=-1)
+
+
+def _dec_mrp(y, seq):
+    return continuous_quaternions(rot.mrp_to_quat(y[:, 0:3])), y[:, 3:6].copy(), {}
+
+
+MRP = declare(Scheme("mrp", size=6, deriv=deriv_mrp, after_step=shadow_mrp, encode=_enc_mrp, decode=_dec_mrp,
+                     work=7))
 
 #: Derived from the registry (compile-time constants inside the kernels).
 STATE_SIZE = tuple(s.size for s in SCHEMES)

@@ -55,6 +55,8 @@ METHODS: dict[str, Method] = {m.name: m for m in [
     Method("gibbs-rk4", K.GIBBS, 4, "RK4 on the Gibbs vector (chart re-centred beyond 90 deg)", "seed 000 §1.4"),
     Method("rotvec-rk4", K.ROTVEC, 4, "RK4 on the rotation vector with the non-commutativity term (chart "
            "re-centred beyond 180 deg)", "seed 000 §1.5"),
+    Method("mrp-rk4", K.MRP, 4, "RK4 on the modified Rodrigues parameters (shadow set when |s| > 1 after a step): "
+           "the kinematics Basilisk's hub integrates", "Schaub & Junkins; Basilisk's spacecraft hub"),
     Method("scipy-rk45", None, None, "scipy solve_ivp RK45, default tolerances (rtol 1e-3, atol 1e-6), sampled "
            "on the grid", "seed 001, appendix A (its own choice)"),
 ]}
