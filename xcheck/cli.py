@@ -86,12 +86,12 @@ def _csv_list(text, kind, name):
 
 
 def _methods_arg(text):
-    from .runners import RUNNERS
+    from .runners import RUNNERS, unknown_method
 
     methods = _csv_list(text, str, "--methods")
     for m in methods:
         if m not in RUNNERS:
-            raise UsageError(f"--methods: unknown method {m!r}; expected any of {', '.join(RUNNERS)}")
+            raise UsageError(f"--methods: {unknown_method(m)}")
     return methods
 
 

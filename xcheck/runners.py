@@ -10,7 +10,7 @@ from .engines import available
 from .integrators import METHODS, integrate, integrate_batch
 from .trajectory import Trajectory
 
-__all__ = ["Runner", "RUNNERS", "RunContext", "BASILISK_METHODS"]
+__all__ = ["Runner", "RUNNERS", "RunContext", "BASILISK_METHODS", "unknown_method"]
 
 
 @dataclass
@@ -128,3 +128,11 @@ if available("basilisk"):
                                  agreement=(name == "basilisk-rk4"), line_style=":", order_with=_basilisk_input_order,
                                  twin="mrp-rk4" if name == "basilisk-rk4" else None)
                     for name, (order, summary) in BASILISK_METHODS.items()})
+
+
+def unknown_method(name: str) -> str:
+    """The message for a method name that is not a runner: an engine's that is not installed says how to get it."""
+    if name in BASILISK_METHODS:
+        return (f"{name!r} is Basilisk's, which is not installed here: pip install 'xcheck[basilisk]' (the PyPI "
+                "package bsk)")
+    return f"unknown method {name!r}; expected one of {', '.join(RUNNERS)}"

@@ -289,12 +289,12 @@ def load_scenario(path) -> Scenario:
             check_steps([reference_dt], duration)
         except ValueError as exc:
             st.fail("reference_dt", str(exc))
-    from .runners import RUNNERS
+    from .runners import RUNNERS, unknown_method
 
     for key, names in (("methods", methods or []), ("reference_method", [reference_method])):
         for m in names:
             if m not in RUNNERS:
-                st.fail(key, f"unknown method {m!r}; expected one of {', '.join(RUNNERS)}")
+                st.fail(key, unknown_method(m))
     st.finish()
 
     ck = _Reader(path, top.get("checks", "table", {}), "checks")
@@ -304,7 +304,7 @@ def load_scenario(path) -> Scenario:
     checks["expected_to_fail"] = ck.get("expected_to_fail", "strings", [])
     for m in checks["expected_to_fail"]:
         if m not in RUNNERS:
-            ck.fail("expected_to_fail", f"unknown method {m!r}; expected any of {', '.join(RUNNERS)}")
+            ck.fail("expected_to_fail", unknown_method(m))
         if methods and m not in methods:
             ck.fail("expected_to_fail", f"{m!r} is not among the [study] methods {methods}")
     ck.finish()

@@ -50,13 +50,13 @@ DEFAULT_SPEC = DeterminationSpec()
 
 def read_determination(reader, duration: float) -> DeterminationSpec:
     """The ``[determination]`` table through a :class:`xcheck.scenario._Reader` (errors name file and key)."""
-    from .runners import RUNNERS
+    from .runners import RUNNERS, unknown_method
     from .trajectory import check_step
 
     d = DEFAULT_SPEC
     method = reader.get("method", "string", d.method)
     if method not in RUNNERS:
-        reader.fail("method", f"unknown method {method!r}; expected one of {', '.join(RUNNERS)}")
+        reader.fail("method", unknown_method(method))
     dt = reader.positive("dt", d.dt)
     try:
         check_step(dt, duration)

@@ -205,7 +205,7 @@ def load_sweep(path) -> SweepSpec:
 
 
 def _read(path: Path, top: _Reader, data: dict) -> SweepSpec:
-    from .runners import RUNNERS
+    from .runners import RUNNERS, unknown_method
 
     for key in data:
         if key not in _TOP_KEYS:
@@ -230,7 +230,7 @@ def _read(path: Path, top: _Reader, data: dict) -> SweepSpec:
     methods = top.get("methods", "strings", None)
     for m in methods or ():
         if m not in RUNNERS:
-            top.fail("methods", f"unknown method {m!r}; expected any of {', '.join(RUNNERS)}")
+            top.fail("methods", unknown_method(m))
     if methods is not None and not methods:
         top.fail("methods", "an empty list: name at least one method")
     axes_table = top.get("axes", "table", required=True)
