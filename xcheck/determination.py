@@ -421,15 +421,25 @@ def quest(b, r, w=None, *, near_angle_deg: float = NEAR_ANGLE_DEG, max_iter: int
         if np.all(np.abs(step) <= 4e-16 * np.abs(lam)):
             break
     # [X, gamma] is the scalar column of adj(lam I - K) = p'(lam) q q^T: its length is |p'(lam) q4|, the same
-    # p'(lam) in every turned frame. Keep the longest: |q4'| >= 1/2 in one of the four frames.
+    # p'(lam) in every turned frame. Where |q4| < 0.4 (within 133° of a half turn), keep the longest of the four
+    # frames: |q4'| >= 1/2 in one of them.
     q = _quest_quaternion(terms, lam)
     size = np.sum(q * q, axis=-1)
-    for turn, unturn in zip(_TURNS, _UNTURN):
-        qt = _quest_quaternion(_quest_terms(B * turn), lam)
-        st = np.sum(qt * qt, axis=-1)
-        better = st > size
-        q = np.where(better[..., None], np.einsum("ij,...j->...i", unturn, qt), q)
-        size = np.where(better, st, size)
+    slope = (4 * lam * lam - 2 * ab) * lam - c  # p'(lam)
+    turn_at = np.nonzero((size < (0.4 * slope) ** 2).ravel())[0]
+    if turn_at.size:
+        shape = q.shape
+        q, size = q.reshape(-1, 4), size.ravel()
+        Bs, ls = B.reshape(-1, 3, 3)[turn_at], lam.ravel()[turn_at]
+        qs, ss = q[turn_at], size[turn_at]
+        for turn, unturn in zip(_TURNS, _UNTURN):
+            qt = _quest_quaternion(_quest_terms(Bs * turn), ls)
+            st = np.sum(qt * qt, axis=-1)
+            better = st > ss
+            qs = np.where(better[:, None], qt @ unturn.T, qs)
+            ss = np.where(better, st, ss)
+        q[turn_at] = qs
+        q = q.reshape(shape)
     return _finish("quest", q, b, r, w, lam, lam2, near_angle_deg)
 
 
