@@ -30,7 +30,8 @@ Torques enter through Basilisk's own modules, and Basilisk reads a module's inpu
   order.
 
 ``extras["torque_input"]`` says which, and ``extras["input_order"]`` the order the held input leaves (None
-when nothing is held).
+when nothing is held). What changes between steps is written by a Python module (a Basilisk ``SysModel``) that
+runs ahead of the hub in the same task: the whole run is one ``ExecuteSimulation``.
 """
 
 from __future__ import annotations
@@ -110,21 +111,13 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
     keep = [integ]  # SWIG objects the simulation points at must outlive it
 
     step_input, input_note, input_order = _torque_input(torque, sc, sim, keep, messaging, extForceTorque)
+    if step_input is not None:  # a Python module that runs before the hub at every task call
+        keep.append(_before_each_step(sim, sc, step_input, ns))
     rec = sc.scStateOutMsg.recorder()
     sim.AddModelToTask("dynamics", rec)
     sim.InitializeSimulation()
-    if step_input is None:
-        sim.ConfigureStopTime(n * ns)
-        sim.ExecuteSimulation()
-    else:
-        state = sc.scStateOutMsg
-        sim.ConfigureStopTime(0)
-        sim.ExecuteSimulation()
-        for k in range(1, n + 1):
-            out = state.read()
-            step_input((k - 1) * ns * 1e-9, ns * 1e-9, np.array(out.sigma_BN), np.array(out.omega_BN_B))
-            sim.ConfigureStopTime(k * ns)
-            sim.ExecuteSimulation()
+    sim.ConfigureStopTime(n * ns)
+    sim.ExecuteSimulation()
     t = np.asarray(rec.times(), dtype=np.int64) * 1e-9
     sigma = np.asarray(rec.sigma_BN, dtype=float)
     omega = np.asarray(rec.omega_BN_B, dtype=float)
@@ -141,6 +134,28 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
         traj.message = f"{method}: the state became non-finite at t = {t[k]:.6g} s"
         return traj
     return Trajectory(t=t, q=continuous_quaternions(q), omega=omega, method=method, dt=float(dt), extras=extras)
+
+
+def _before_each_step(sim, sc, step_input, ns):
+    """A Basilisk Python module, ahead of the hub in the task: at the call for time ``t_k`` (the hub then
+    integrates from ``t_k - h`` to ``t_k``) it calls ``step_input(t_k - h, h, sigma, omega)`` with the hub's state
+    at ``t_k - h`` (its last output). One ``ExecuteSimulation`` for the whole run."""
+    from Basilisk.architecture import sysModel
+
+    h = ns * 1e-9
+    state = sc.scStateOutMsg
+
+    class BeforeEachStep(sysModel.SysModel):
+        def UpdateState(self, CurrentSimNanos):
+            if CurrentSimNanos == 0:
+                return
+            out = state.read()
+            step_input(CurrentSimNanos * 1e-9 - h, h, np.array(out.sigma_BN), np.array(out.omega_BN_B))
+
+    module = BeforeEachStep()
+    module.ModelTag = "xcheck-input"
+    sim.AddModelToTask("dynamics", module, 100)  # a higher priority runs first
+    return module
 
 
 def _torque_input(torque, sc, sim, keep, messaging, extForceTorque):
