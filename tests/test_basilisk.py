@@ -177,3 +177,14 @@ def test_without_basilisk_a_scenario_says_how_to_get_it(monkeypatch, tmp_path):
 
 
 pytest_plugins = ["pytester"]
+
+
+def test_a_blow_up_is_a_failed_run_not_nans():
+    """1000 rad/s at a 0.5 s step: RK4 diverges; the run fails at its first non-finite state, naming the time,
+    and keeps only the good states (no NaN reaches a report)."""
+    from xcheck.engines.basilisk import simulate
+
+    traj = simulate(np.diag([1.0, 2.0, 3.0]), integrator="rk4", q0=[1, 0, 0, 0], omega0=[1e3, 2e3, -1e3], dt=0.5,
+                    duration=50.0)
+    assert traj.status == "failed" and "non-finite at t = " in traj.message
+    assert np.all(np.isfinite(traj.q)) and np.all(np.isfinite(traj.omega)) and len(traj.t) == len(traj.q) < 101

@@ -42,7 +42,7 @@ from .. import rotations as rot
 from ..fields.models import ConstantTorque, MagneticTorque
 from ..trajectory import Trajectory, check_initial_state, continuous_quaternions
 
-__all__ = ["simulate", "INTEGRATORS", "to_basilisk", "from_basilisk", "clock_step", "bench_extras"]
+__all__ = ["simulate", "INTEGRATORS", "to_basilisk", "from_basilisk", "clock_step"]
 
 #: Our names -> Basilisk's integrator classes (``Basilisk.simulation.svIntegrators``), the ones it offers.
 INTEGRATORS = {"rk4": "svIntegratorRK4", "rkf45": "svIntegratorRKF45", "rkf78": "svIntegratorRKF78"}
@@ -121,19 +121,18 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
     t = np.asarray(rec.times(), dtype=np.int64) * 1e-9
     sigma = np.asarray(rec.sigma_BN, dtype=float)
     omega = np.asarray(rec.omega_BN_B, dtype=float)
-    q, omega = from_basilisk(sigma, omega) if np.all(np.isfinite(sigma)) else (None, omega)
     extras = {"basilisk_version": _version(), "step_ns": ns, "clock": clock_note, "torque_input": input_note,
               "input_order": input_order}
     method = f"basilisk-{integrator}"
-    if q is None or not np.all(np.isfinite(omega)):
-        bad = ~(np.all(np.isfinite(sigma), axis=1) & np.all(np.isfinite(omega), axis=1))
-        k = int(np.argmax(bad))
-        traj = Trajectory(t=t[:k], q=rot.mrp_to_quat(sigma[:k]) if k else np.empty((0, 4)), omega=omega[:k],
-                          method=method, dt=float(dt), extras=extras)
+    bad = ~(np.all(np.isfinite(sigma), axis=1) & np.all(np.isfinite(omega), axis=1))
+    k = int(np.argmax(bad)) if bad.any() else len(t)
+    q, omega = from_basilisk(sigma[:k], omega[:k])
+    traj = Trajectory(t=t[:k], q=continuous_quaternions(q) if k else np.empty((0, 4)), omega=omega, method=method,
+                      dt=float(dt), extras=extras)
+    if k < len(t):
         traj.status = "failed"
         traj.message = f"{method}: the state became non-finite at t = {t[k]:.6g} s"
-        return traj
-    return Trajectory(t=t, q=continuous_quaternions(q), omega=omega, method=method, dt=float(dt), extras=extras)
+    return traj
 
 
 def _before_each_step(sim, sc, step_input, ns):
@@ -230,8 +229,3 @@ def _version() -> str | None:
     from ..versions import package_version
 
     return package_version("bsk")
-
-
-def bench_extras(contexts, dt, nsteps, repeat):
-    """No rows beyond the runners': Basilisk's task loop is what its runners already time."""
-    return []
