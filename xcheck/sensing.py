@@ -89,20 +89,13 @@ def run_determination(scenario, spec: DeterminationSpec | None = None) -> tuple[
     rng = np.random.default_rng(spec.seed)
     levels, series, checks = [], {"t": traj.t, "levels": {}}, []
     for level in spec.levels:
-        b, r, w, sig, first = observe(B_body, B_world, sun_world, R, level, rng)
-        b_true = np.einsum("tji,tkj->tki", R, r)
-        pred = None if level.noise_free else float(np.sqrt(np.mean(predicted_rms(b_true, sig) ** 2)))
+        first, pred, solved = _solve(level, sun_world, B_body, B_world, R, traj.q, spec.methods, rng)
         row = {"name": level.name, "magnetometer_nT": level.magnetometer_nT, "sun_deg": level.sun_deg,
                "first": first, "predicted_rms": pred, "methods": {}}
         errs = {}
-        for m in spec.methods:
-            det.determine(m, b[:2], r[:2], w[:2])  # compiled code loaded before the timing
-            t0 = time.perf_counter()
-            est = det.determine(m, b, r, w)
-            seconds = time.perf_counter() - t0
-            err = attitude_error(est.q, traj.q)
+        for m, (err, near, seconds) in solved.items():
             errs[m] = err
-            row["methods"][m] = {**_stats(err), "near_degenerate": int(np.sum(est.near_degenerate)),
+            row["methods"][m] = {**_stats(err), "near_degenerate": near,
                                  "solutions_per_second": T / seconds if seconds > 0 else None,
                                  "ratio_to_predicted": None if pred is None else float(np.sqrt(np.mean(err**2)) / pred)}
             if level.noise_free:
@@ -138,13 +131,27 @@ def _approach(spec, traj, R, B_body, B_world, rng) -> dict:
            "methods": {m: {"rms": [], "near_degenerate": []} for m in spec.methods}}
     for a in spec.approach_angles_deg:
         th = np.radians(a)
-        sun_world = np.cos(th) * h + np.sin(th) * p
-        b, r, w, sig, _ = observe(B_body, B_world, sun_world, R, level, rng)
-        b_true = np.einsum("tji,tkj->tki", R, r)
-        out["predicted_rms"].append(float(np.sqrt(np.mean(predicted_rms(b_true, sig) ** 2))))
-        for m in spec.methods:
-            est = det.determine(m, b, r, w)
-            err = attitude_error(est.q, traj.q)
+        _, pred, solved = _solve(level, np.cos(th) * h + np.sin(th) * p, B_body, B_world, R, traj.q, spec.methods,
+                                 rng)
+        out["predicted_rms"].append(pred)
+        for m, (err, near, _) in solved.items():
             out["methods"][m]["rms"].append(float(np.sqrt(np.mean(err**2))))
-            out["methods"][m]["near_degenerate"].append(int(np.sum(est.near_degenerate)))
+            out["methods"][m]["near_degenerate"].append(near)
     return out
+
+
+def _solve(level, sun_world, B_body, B_world, R, q_true, methods, rng):
+    """One noise level's observations, solved by every method: ``(first sensor, predicted RMS (None when
+    noise-free), {method: (errors against q_true, near-degenerate count, seconds)})``."""
+    b, r, w, sig, first = observe(B_body, B_world, sun_world, R, level, rng)
+    pred = None
+    if not level.noise_free:
+        pred = float(np.sqrt(np.mean(predicted_rms(np.einsum("tji,tkj->tki", R, r), sig) ** 2)))
+    solved = {}
+    for m in methods:
+        det.determine(m, b[:2], r[:2], w[:2])  # compiled code loaded before the timing
+        t0 = time.perf_counter()
+        est = det.determine(m, b, r, w)
+        seconds = time.perf_counter() - t0
+        solved[m] = (attitude_error(est.q, q_true), int(np.sum(est.near_degenerate)), seconds)
+    return first, pred, solved

@@ -50,9 +50,7 @@ MU0 = 4e-7 * np.pi
 
 
 def to_basilisk(q, omega):
-    """Our ``(q, omega)`` -> Basilisk's ``(sigma_BN, omega_BN_B)`` (``|sigma| <= 1``)."""
-    q = rot.quat_normalize(q)
-    q = np.where(q[..., :1] < 0, -q, q)
+    """Our ``(q, omega)`` -> Basilisk's ``(sigma_BN, omega_BN_B)`` (``|sigma| <= 1``, quat_to_mrp's short set)."""
     return rot.quat_to_mrp(q), np.asarray(omega, dtype=float)
 
 

@@ -747,8 +747,7 @@ def shadow_mrp(y):
 
 
 def _enc_mrp(q0, w0, seq):
-    q0 = np.where(q0[..., :1] < 0, -q0, q0)
-    return np.concatenate([rot.quat_to_mrp(q0), w0], axis=-1)
+    return np.concatenate([rot.quat_to_mrp(q0), w0], axis=-1)  # the short set, |s| <= 1
 
 
 def _dec_mrp(y, seq):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .document import Cell, Figure, Heading, Para, Table
+from .render import _fmt
 
 __all__ = ["determination_job", "determination_blocks", "seed002_blocks", "draw_determination"]
 
@@ -65,10 +66,6 @@ def draw_determination(data: dict, series: dict) -> list[tuple[str, str, bytes]]
     return out
 
 
-def _e(x) -> str:
-    return "—" if x is None else f"{x:.2e}"
-
-
 def determination_blocks(data: dict, figures) -> list:
     """The section of one scenario's determination study; ``figures`` ``[(file, caption)]``."""
     name = data["scenario"]
@@ -88,10 +85,10 @@ def determination_blocks(data: dict, figures) -> list:
         for m, s in lv["methods"].items():
             ratio = s["ratio_to_predicted"]
             rows.append([lv["name"] if m == next(iter(lv["methods"])) else "", m,
-                         Cell(_e(s["mean"]), num=True), Cell(_e(s["rms"]), num=True),
-                         Cell(_e(lv["predicted_rms"]), num=True),
+                         Cell(_fmt(s["mean"]), num=True), Cell(_fmt(s["rms"]), num=True),
+                         Cell(_fmt(lv["predicted_rms"]), num=True),
                          Cell("—" if ratio is None else f"{ratio:.3f}", num=True),
-                         Cell(_e(s["p95"]), num=True), Cell(_e(s["max"]), num=True),
+                         Cell(_fmt(s["p95"]), num=True), Cell(_fmt(s["max"]), num=True),
                          Cell(str(s["near_degenerate"]), num=True),
                          Cell("—" if not s["solutions_per_second"] else f"{s['solutions_per_second']:.3g}", num=True)])
     blocks.append(Table(["noise", "method", "mean [rad]", "RMS [rad]", "predicted RMS", "RMS / predicted",
@@ -104,8 +101,8 @@ def determination_blocks(data: dict, figures) -> list:
         rows = []
         for i, a in enumerate(ap["angles_deg"]):
             flags = max(v["near_degenerate"][i] for v in ap["methods"].values())
-            rows.append([Cell(f"{a:g}", num=True), Cell(_e(ap["predicted_rms"][i]), num=True)]
-                        + [Cell(_e(v["rms"][i]), num=True) for v in ap["methods"].values()]
+            rows.append([Cell(f"{a:g}", num=True), Cell(_fmt(ap["predicted_rms"][i]), num=True)]
+                        + [Cell(_fmt(v["rms"][i]), num=True) for v in ap["methods"].values()]
                         + [Cell(f"{flags} of {tr['samples']}", num=True)])
         blocks.append(Para(f"The approach study ({ap['level']}): the sun direction placed at each angle from the "
                            "field's at every sample. The error grows as 1/sin(angle); below 1° every solution is "
