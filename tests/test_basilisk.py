@@ -188,3 +188,50 @@ def test_a_blow_up_is_a_failed_run_not_nans():
                     duration=50.0)
     assert traj.status == "failed" and "non-finite at t = " in traj.message
     assert np.all(np.isfinite(traj.q)) and np.all(np.isfinite(traj.omega)) and len(traj.t) == len(traj.q) < 101
+
+
+def test_a_tolerance_reaches_basilisks_adaptive_integrators():
+    """Truth: the exact torque-free solution. At a 1/2 s task step RKF45's error follows its tolerance: six
+    decades of tolerance buy over two decades of error; RK4 refuses one."""
+    from xcheck.engines.basilisk import simulate
+    from xcheck.rotations import attitude_error
+    from xcheck.study import run_context, scenario_reference
+
+    sc = resolve_scenario("gyroscope-nonsingular")
+    ctx, ref = run_context(sc), scenario_reference(sc)
+    err = {}
+    for rtol in (1e-3, 1e-9):
+        traj = simulate(ctx.inertia, integrator="rkf45", q0=ctx.q0, omega0=ctx.omega0, dt=0.5, duration=10.0,
+                        rtol=rtol)
+        assert traj.extras["tolerances"] == pytest.approx((rtol, rtol * 1e-4), rel=1e-15)  # its own 1e-4 : 1e-8
+        q, _, mask = ref.at(traj.t)
+        err[rtol] = attitude_error(traj.q[mask], q[mask]).max()
+    assert err[1e-9] < err[1e-3] / 100
+    with pytest.raises(ValueError, match="rtol: basilisk-rk4 is a fixed-step method"):
+        simulate(ctx.inertia, integrator="rk4", q0=ctx.q0, omega0=ctx.omega0, dt=0.5, duration=1.0, rtol=1e-6)
+
+
+def test_the_compiled_held_input_writes_each_row_before_its_step():
+    """xcheck.engines.held_input in Basilisk's NumbaModel: at the task call for (k + 1) ns it writes row k; before
+    the first step and after the last it leaves the message as it was."""
+    from Basilisk.architecture import messaging
+
+    from xcheck.engines.basilisk import _held_rows
+
+    class Sim:
+        keep: list = []
+
+        def add(self, model, priority):
+            self.module = model
+
+    message = messaging.CmdTorqueBodyMsg()
+    table = np.arange(12.0).reshape(4, 3)
+    sim = Sim()
+    _held_rows(sim, message, table, 1000)
+    sim.module.Reset(0)
+    for nanos, row in ((1000, 0), (2000, 1), (4000, 3)):
+        sim.module.UpdateState(nanos)
+        assert message.read().torqueRequestBody == table[row].tolist()
+    for nanos in (0, 5000):  # no step starts there: the last row stays
+        sim.module.UpdateState(nanos)
+        assert message.read().torqueRequestBody == table[3].tolist()

@@ -9,11 +9,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import determination as det
+from .fields.kernel import MU0  # [T m/A], the field models' H -> B
 
 __all__ = ["NoiseLevel", "DeterminationSpec", "DEFAULT_SPEC", "read_determination", "observe", "predicted_rms",
            "MU0", "PREDICTION_BAND", "EXACT_TOL"]
 
-MU0 = 4e-7 * np.pi  # [T m/A], the field models' H -> B
 #: An optimal method's RMS error must be within this factor of the predicted (statistics over ~600 samples of
 #: three axes put 1 sigma at ~2 %; the first-order prediction is the rest).
 PREDICTION_BAND = (0.85, 1.15)

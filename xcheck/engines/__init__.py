@@ -19,11 +19,20 @@ ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco"),
            "basilisk": Engine("basilisk", "bsk", "xcheck.engines.basilisk")}
 
 
+#: An optional engine is left out, although installed, when ``$XCHECK_WITHOUT`` names it (comma-separated):
+#: ``XCHECK_WITHOUT=basilisk xcheck report`` is the report as on a machine without Basilisk (the speed figures
+#: are measured both ways).
+WITHOUT_VARIABLE = "XCHECK_WITHOUT"
+
+
 def available(engine: str) -> bool:
     """Whether an engine's package is installed (MuJoCo always is; Basilisk is the optional extra ``basilisk``),
-    found without importing it."""
+    found without importing it, and not left out by ``$XCHECK_WITHOUT``."""
     import importlib.util
+    import os
 
+    if engine != "mujoco" and engine in {e.strip() for e in os.environ.get(WITHOUT_VARIABLE, "").split(",")}:
+        return False
     return importlib.util.find_spec({"mujoco": "mujoco", "basilisk": "Basilisk"}[engine]) is not None
 #: engine name -> the distribution whose version a report records
 ENGINE_PACKAGES = {name: engine.package for name, engine in ENGINES.items()}

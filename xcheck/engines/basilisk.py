@@ -19,26 +19,39 @@ Torques enter through Basilisk's own modules, and Basilisk reads a module's inpu
 
 * a constant body torque: ``extForceTorque.extTorquePntB_B``, exact;
 * a magnetic torque in a field given in inertial components: the ``MtbEffector`` with three torque rods along
-  the body axes commanded to the permanent dipole, its ``magInMsg`` the field ``mu0 H`` written before every
-  step at the step's midpoint time and held over the step. The effector rotates the field into the body with
-  the attitude of every integrator stage, so the attitude dependence is integrated at the integrator's order;
-  the field's time dependence is held (a midpoint rule: second order, with the field's slow rotation along
-  the orbit as its constant). A uniform field is written once;
-* a magnetic torque in a field given in body components (a table): ``extForceTorque`` set before every step to
-  the torque at the step's midpoint time, held: second order;
+  the body axes commanded to the permanent dipole, its ``magInMsg`` the field ``mu0 H`` at each step's midpoint
+  time, held over the step. The effector rotates the field into the body with the attitude of every integrator
+  stage, so the attitude dependence is integrated at the integrator's order; the field's time dependence is
+  held (a midpoint rule: second order, with the field's slow rotation along the orbit as its constant). A field
+  that does not change with time is written once;
+* a magnetic torque in a field given in body components (a table): ``extForceTorque.cmdTorqueInMsg`` holding
+  the torque at each step's midpoint time: second order;
 * any other torque (a Python callable): ``extForceTorque`` set to the torque at the step's start, held: first
   order.
 
 ``extras["torque_input"]`` says which, and ``extras["input_order"]`` the order the held input leaves (None
-when nothing is held). What changes between steps is written by a Python module (a Basilisk ``SysModel``) that
-runs ahead of the hub in the same task: the whole run is one ``ExecuteSimulation``.
+when nothing is held). Held inputs that do not depend on the state (the field, a body-frame torque) are
+computed for every step before the run and written by a compiled module ahead of the hub in its task
+(:mod:`xcheck.engines.held_input`): the whole run is one call into Basilisk, with no Python per step. Only a
+Python callable's torque, which needs the state, is written by a Python module at every step.
+
+Basilisk's adaptive integrators (RKF45, RKF78) take ``rtol``: their relative tolerance, with the absolute one in
+Basilisk's own proportion (its defaults: 1e-4 and 1e-8). They integrate within each task step, so ``dt`` is the
+output step (and the longest step they may take, and the hold of a time-dependent input).
+
+The simulation is built from Basilisk's ``sim_model`` directly (process, task, models), as its
+``SimulationBaseClass`` does, without that module's import of matplotlib (0.8 s a process).
 """
 
 from __future__ import annotations
 
+import functools
+from types import SimpleNamespace
+
 import numpy as np
 
 from .. import rotations as rot
+from ..fields.kernel import MU0
 from ..fields.models import ConstantTorque, MagneticTorque
 from ..trajectory import Trajectory, check_initial_state, continuous_quaternions
 
@@ -46,7 +59,6 @@ __all__ = ["simulate", "INTEGRATORS", "to_basilisk", "from_basilisk", "clock_ste
 
 #: Our names -> Basilisk's integrator classes (``Basilisk.simulation.svIntegrators``), the ones it offers.
 INTEGRATORS = {"rk4": "svIntegratorRK4", "rkf45": "svIntegratorRKF45", "rkf78": "svIntegratorRKF78"}
-MU0 = 4e-7 * np.pi
 
 
 def to_basilisk(q, omega):
@@ -71,56 +83,104 @@ def clock_step(dt: float) -> tuple[int, str | None]:
                 f"({abs(ns - exact) / exact:.1e} relative); compared with the reference at Basilisk's own times")
 
 
+#: Basilisk's own default tolerances of its adaptive integrators (relative, absolute): an ``rtol`` keeps this
+#: proportion.
+DEFAULT_TOLERANCES = (1e-4, 1e-8)
+ADAPTIVE = ("rkf45", "rkf78")
+
+
+@functools.lru_cache(maxsize=1)
 def _modules():
-    from Basilisk.architecture import messaging
+    from Basilisk.architecture import messaging, sim_model, sys_model_task
     from Basilisk.simulation import extForceTorque, spacecraft, svIntegrators
-    from Basilisk.utilities import SimulationBaseClass
 
-    return messaging, extForceTorque, spacecraft, svIntegrators, SimulationBaseClass
+    return SimpleNamespace(messaging=messaging, sim_model=sim_model, sys_model_task=sys_model_task,
+                           extForceTorque=extForceTorque, spacecraft=spacecraft, svIntegrators=svIntegrators)
 
 
-def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float, torque=None) -> Trajectory:
+class _Simulation:
+    """One process and one task of Basilisk's ``sim_model`` (what ``SimulationBaseClass`` builds), keeping every
+    object the simulation points at alive while it runs."""
+
+    def __init__(self, ns: int):
+        b = _modules()
+        self.total = b.sim_model.SimModel()
+        self.process = b.sim_model.SysProcess("xcheck")
+        self.task = b.sys_model_task.SysModelTask(ns, 0)
+        self.task.TaskName = "dynamics"
+        self.process.addNewTask(self.task, -1)
+        self.total.addNewProcess(self.process)
+        self.keep = []
+
+    def add(self, model, priority: int = -1):
+        """Add ``model`` to the task (a higher priority runs earlier in each task call)."""
+        self.task.AddNewObject(model, priority)
+        self.keep.append(model)
+        return model
+
+    def run(self, stop_ns: int) -> None:
+        self.total.assignRemainingProcs()
+        self.total.ResetSimulation()
+        self.total.selfInitSimulation()
+        self.total.resetInitSimulation()
+        self.total.StepUntilStop(int(stop_ns), -1)
+
+
+#: Priorities in the task: held inputs are written first, then effectors read them, then the hub integrates.
+INPUT_PRIORITY, EFFECTOR_PRIORITY = 100, 50
+
+
+def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float, torque=None,
+             rtol: float | None = None) -> Trajectory:
     """Run Basilisk's spacecraft hub with ``inertia`` (3, 3) [kg m^2] from ``(q0, omega0)`` (ours) for
     ``duration`` s at task step ``dt`` with its integrator ``integrator`` (:data:`INTEGRATORS`); ``torque``
-    None, a :class:`~xcheck.fields.models.TorqueModel` or a callable ``(t, q, omega) -> (3,)``. Returns a
-    Trajectory at Basilisk's own times (see the module docstring for the clock and the torque input)."""
+    None, a :class:`~xcheck.fields.models.TorqueModel` or a callable ``(t, q, omega) -> (3,)``; ``rtol`` the
+    relative tolerance of an adaptive integrator (None: Basilisk's default). Returns a Trajectory at Basilisk's
+    own times (see the module docstring for the clock and the torque input)."""
     if integrator not in INTEGRATORS:
         raise ValueError(f"integrator: unknown {integrator!r}; expected one of {', '.join(INTEGRATORS)}")
+    if rtol is not None and integrator not in ADAPTIVE:
+        raise ValueError(f"rtol: basilisk-{integrator} is a fixed-step method; a tolerance applies to "
+                         f"{', '.join('basilisk-' + a for a in ADAPTIVE)}")
+    if rtol is not None and not (np.isfinite(rtol) and 0 < rtol < 1):
+        raise ValueError(f"rtol: expected a relative tolerance in (0, 1), got {rtol!r}")
     q0, omega0 = check_initial_state(q0, omega0)
     ns, clock_note = clock_step(float(dt))
     n = int((round(float(duration) * 1e9)) // ns)
     if n < 1:
         raise ValueError(f"dt: {dt:g} s is longer than the duration {duration:g} s")
-    messaging, extForceTorque, spacecraft, svIntegrators, SimulationBaseClass = _modules()
+    b = _modules()
 
-    sim = SimulationBaseClass.SimBaseClass()
-    proc = sim.CreateNewProcess("xcheck")
-    proc.addTask(sim.CreateNewTask("dynamics", ns))
-    sc = spacecraft.Spacecraft()
+    sim = _Simulation(ns)
+    sc = b.spacecraft.Spacecraft()
     sc.ModelTag = "xcheck-body"
     sc.hub.mHub = 1.0
     sc.hub.IHubPntBc_B = np.asarray(inertia, dtype=float).tolist()
     sigma0, w0 = to_basilisk(q0, omega0)
     sc.hub.sigma_BNInit = [[float(x)] for x in sigma0]
     sc.hub.omega_BN_BInit = [[float(x)] for x in w0]
-    integ = getattr(svIntegrators, INTEGRATORS[integrator])(sc)
+    integ = getattr(b.svIntegrators, INTEGRATORS[integrator])(sc)
+    tolerances = None
+    if integrator in ADAPTIVE:
+        rel, abs_ = DEFAULT_TOLERANCES
+        if rtol is not None:
+            rel, abs_ = float(rtol), float(rtol) * abs_ / rel
+            integ.relTol, integ.absTol = rel, abs_
+        tolerances = (rel, abs_)
     sc.setIntegrator(integ)
-    sim.AddModelToTask("dynamics", sc)
-    keep = [integ]  # SWIG objects the simulation points at must outlive it
+    sim.keep.append(integ)  # SWIG objects the simulation points at must outlive it
 
-    step_input, input_note, input_order = _torque_input(torque, sc, sim, keep, messaging, extForceTorque)
-    if step_input is not None:  # a Python module that runs before the hub at every task call
-        keep.append(_before_each_step(sim, sc, step_input, ns))
-    rec = sc.scStateOutMsg.recorder()
-    sim.AddModelToTask("dynamics", rec)
-    sim.InitializeSimulation()
-    sim.ConfigureStopTime(n * ns)
-    sim.ExecuteSimulation()
+    input_note, input_order = _torque_input(torque, sc, sim, b, ns, n)
+    sim.add(sc)
+    rec = sim.add(sc.scStateOutMsg.recorder())
+    sim.run(n * ns)
     t = np.asarray(rec.times(), dtype=np.int64) * 1e-9
     sigma = np.asarray(rec.sigma_BN, dtype=float)
     omega = np.asarray(rec.omega_BN_B, dtype=float)
     extras = {"basilisk_version": _version(), "step_ns": ns, "clock": clock_note, "torque_input": input_note,
-              "input_order": input_order}
+              "input_order": input_order, "tolerances": tolerances,
+              # RK4: four evaluations of the hub's equations a step; the adaptive ones do not report theirs
+              "evaluations": 4 * n if integrator == "rk4" else None}
     method = f"basilisk-{integrator}"
     bad = ~(np.all(np.isfinite(sigma), axis=1) & np.all(np.isfinite(omega), axis=1))
     k = int(np.argmax(bad)) if bad.any() else len(t)
@@ -133,10 +193,43 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
     return traj
 
 
+def _step_midpoints(ns: int, n: int) -> np.ndarray:
+    """The midpoint times [s] of the steps ``k ns .. (k + 1) ns``, k < n (computed as the task call at
+    ``(k + 1) ns`` sees them)."""
+    h = ns * 1e-9
+    return (np.arange(1, n + 1, dtype=np.int64) * ns) * 1e-9 - h + h / 2
+
+
+def _held_rows(sim, message, table, ns: int):
+    """A compiled module (:mod:`xcheck.engines.held_input`), ahead of everything in the task, writing row k of
+    ``table`` (n, 3) into ``message``'s payload before step k."""
+    from Basilisk.architecture.numbaModel import _NumbaModel
+
+    from .held_input import write_row
+
+    table = np.ascontiguousarray(table, dtype=float)
+    meta = np.array([len(table), ns], dtype=np.int64)
+
+    class HeldRows(_NumbaModel):
+        def Reset(self, CurrentSimNanos):  # Basilisk clears the registered pointers at every reset
+            _NumbaModel.Reset(self, CurrentSimNanos)
+            self.addWritePayloadPtr(message.getPayloadAddress())
+            self.addWriteHeaderPtr(message.getHeaderAddress())
+            self.addUserPointer(meta.ctypes.data)
+            self.addUserPointer(table.ctypes.data)
+            self.setStateUpdateFunc(write_row.address)
+            self.finalizeAllPtrs()
+
+    module = HeldRows()
+    module.ModelTag = "xcheck-held-input"
+    sim.add(module, INPUT_PRIORITY)
+    sim.keep += [message, table, meta]
+
+
 def _before_each_step(sim, sc, step_input, ns):
     """A Basilisk Python module, ahead of the hub in the task: at the call for time ``t_k`` (the hub then
     integrates from ``t_k - h`` to ``t_k``) it calls ``step_input(t_k - h, h, sigma, omega)`` with the hub's state
-    at ``t_k - h`` (its last output). One ``ExecuteSimulation`` for the whole run."""
+    at ``t_k - h`` (its last output). Only for a torque that needs the state (a Python callable)."""
     from Basilisk.architecture import sysModel
 
     h = ns * 1e-9
@@ -151,43 +244,47 @@ def _before_each_step(sim, sc, step_input, ns):
 
     module = BeforeEachStep()
     module.ModelTag = "xcheck-input"
-    sim.AddModelToTask("dynamics", module, 100)  # a higher priority runs first
-    return module
+    sim.add(module, INPUT_PRIORITY)
 
 
-def _torque_input(torque, sc, sim, keep, messaging, extForceTorque):
-    """Connect ``torque`` to the hub. Returns ``(step_input, note, order)``: ``step_input(t, h, sigma, omega)``
-    called before every step from ``t`` to ``t + h`` (None when nothing changes between steps)."""
-    if torque is None:
-        return None, "none (torque free)", None
-    if isinstance(torque, ConstantTorque):
-        ext = extForceTorque.ExtForceTorque()
-        ext.extTorquePntB_B = [[float(x)] for x in torque.P]
-        sc.addDynamicEffector(ext)
-        sim.AddModelToTask("dynamics", ext)
-        keep.append(ext)
-        return None, "extForceTorque.extTorquePntB_B (constant)", None
-    if isinstance(torque, MagneticTorque) and torque.field.frame == "world":
-        return _mtb(torque, sc, sim, keep, messaging)
-    ext = extForceTorque.ExtForceTorque()
+def _ext_torque(sc, sim, b):
+    ext = b.extForceTorque.ExtForceTorque()
+    ext.ModelTag = "xcheck-torque"
     sc.addDynamicEffector(ext)
-    sim.AddModelToTask("dynamics", ext)
-    keep.append(ext)
+    return sim.add(ext, EFFECTOR_PRIORITY)
+
+
+def _torque_input(torque, sc, sim, b, ns: int, n: int):
+    """Connect ``torque`` to the hub (modules added to ``sim``). Returns ``(note, order)``: how it enters, and the
+    order its holding leaves (None: nothing held)."""
+    if torque is None:
+        return "none (torque free)", None
+    if isinstance(torque, ConstantTorque):
+        ext = _ext_torque(sc, sim, b)
+        ext.extTorquePntB_B = [[float(x)] for x in torque.P]
+        return "extForceTorque.extTorquePntB_B (constant)", None
+    if isinstance(torque, MagneticTorque) and torque.field.frame == "world":
+        return _mtb(torque, sc, sim, b, ns, n)
+    ext = _ext_torque(sc, sim, b)
     if isinstance(torque, MagneticTorque):  # a body-frame field: attitude-independent, time-dependent
-        def step_input(t, h, sigma, omega):
-            ext.extTorquePntB_B = [[float(x)] for x in torque(t + h / 2, np.array([1.0, 0, 0, 0]), omega)]
-        return step_input, "extForceTorque, set before every step to the torque at the step's midpoint, held", 2
+        message = b.messaging.CmdTorqueBodyMsg()
+        ext.cmdTorqueInMsg.subscribeTo(message)
+        t = _step_midpoints(ns, n)
+        _held_rows(sim, message, torque.many(t, np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3)), ns)
+        return "extForceTorque.cmdTorqueInMsg: the torque at each step's midpoint, held over the step", 2
 
     def step_input(t, h, sigma, omega):
         ext.extTorquePntB_B = [[float(x)] for x in np.asarray(torque(t, rot.mrp_to_quat(sigma), omega), float)]
-    return step_input, "extForceTorque, set before every step to the torque at the step's start, held", 1
+    _before_each_step(sim, sc, step_input, ns)
+    return "extForceTorque, set before every step to the torque at the step's start, held", 1
 
 
-def _mtb(torque, sc, sim, keep, messaging):
+def _mtb(torque, sc, sim, b, ns: int, n: int):
     """The permanent dipole as three torque rods along the body axes in Basilisk's ``MtbEffector``, the field
-    ``mu0 H_world`` in its ``magInMsg`` (written at each step's midpoint time; once for a uniform field)."""
+    ``mu0 H_world`` in its ``magInMsg`` (at each step's midpoint time; once for a field fixed in time)."""
     from Basilisk.simulation import MtbEffector
 
+    messaging = b.messaging
     mtb = MtbEffector.MtbEffector()
     mtb.ModelTag = "xcheck-dipole"
     params = messaging.MTBArrayConfigMsgPayload()
@@ -199,30 +296,25 @@ def _mtb(torque, sc, sim, keep, messaging):
     cmd = messaging.MTBCmdMsgPayload()
     cmd.mtbDipoleCmds = dipole.tolist()
     cmd_msg = messaging.MTBCmdMsg().write(cmd)
-    field_payload = messaging.MagneticFieldMsgPayload()
     field_msg = messaging.MagneticFieldMsg()
     field = torque.field
-
-    def write_field(t):
-        field_payload.magField_N = (MU0 * np.asarray(field.strength(np.array([t]))[0], dtype=float)).tolist()
-        field_msg.write(field_payload)
-
-    write_field(0.0)
+    field_payload = messaging.MagneticFieldMsgPayload()
+    field_payload.magField_N = (MU0 * np.asarray(field.strength(np.array([0.0]))[0], dtype=float)).tolist()
+    field_msg.write(field_payload)
     mtb.mtbCmdInMsg.subscribeTo(cmd_msg)
     mtb.mtbParamsInMsg.subscribeTo(params_msg)
     mtb.magInMsg.subscribeTo(field_msg)
     sc.addDynamicEffector(mtb)
-    sim.AddModelToTask("dynamics", mtb)
-    keep += [mtb, params_msg, cmd_msg, field_msg, field_payload]
-    if field.name == "uniform":
-        return None, "MtbEffector (the dipole as three torque rods), uniform field in magInMsg", None
-
-    def step_input(t, h, sigma, omega):
-        write_field(t + h / 2)
-    return (step_input, "MtbEffector (the dipole as three torque rods; the attitude of every stage), the field "
-            "in magInMsg written at each step's midpoint time and held over the step", 2)
+    sim.add(mtb, EFFECTOR_PRIORITY)
+    sim.keep += [params_msg, cmd_msg, field_msg, field_payload]
+    if not field.time_dependent:
+        return "MtbEffector (the dipole as three torque rods), the field in magInMsg (fixed in time)", None
+    _held_rows(sim, field_msg, MU0 * np.asarray(field.strength(_step_midpoints(ns, n)), dtype=float), ns)
+    return ("MtbEffector (the dipole as three torque rods; the attitude of every stage), the field in magInMsg at "
+            "each step's midpoint time, held over the step", 2)
 
 
+@functools.lru_cache(maxsize=1)
 def _version() -> str | None:
     from ..versions import package_version
 

@@ -158,3 +158,11 @@ def torque_needs_attitude(kind, P):
     given in world components. (The same answer as the Python side's ``attitude_dependent``: both read the
     field's declared frame.)"""
     return kind == MAGNETIC and P[FRAME] == WORLD
+
+
+@njit(cache=True, error_model="numpy")
+def torque_many(kind, P, T, t, q, w, out):
+    """:func:`torque_eval` at every row: times ``t`` (n,), attitudes ``q`` (n, 4), rates ``w`` (n, 3) -> ``out``
+    (n, 3); the same arithmetic as the integrators' stages, for a run's samples or an engine's held inputs."""
+    for i in range(t.shape[0]):
+        torque_eval(kind, P, T, t[i], q[i], w[i], out[i])

@@ -49,6 +49,16 @@ class TorqueModel:
                            np.ascontiguousarray(omega, dtype=float), out)
         return out
 
+    def many(self, t, q, omega) -> np.ndarray:
+        """The torque at every row: ``t`` (n,), ``q`` (n, 4), ``omega`` (n, 3) -> (n, 3) [N m], compiled (the same
+        numbers as ``model(t[i], q[i], omega[i])``)."""
+        t = np.ascontiguousarray(t, dtype=float)
+        q = np.ascontiguousarray(np.broadcast_to(q, t.shape + (4,)), dtype=float)
+        omega = np.ascontiguousarray(np.broadcast_to(omega, t.shape + (3,)), dtype=float)
+        out = np.empty(t.shape + (3,))
+        kernel.torque_many(self.kind, self.P, self.T, t, q, omega, out)
+        return out
+
     def check_span(self, t_end: float) -> None:
         """Raise ValueError if the model is not defined on ``[0, t_end]``."""
 
@@ -112,6 +122,8 @@ class Field:
     keys: ClassVar[dict[str, Key]] = {}
     slots: ClassVar[tuple[str, ...]] = ()
     frame: ClassVar[str] = "world"
+    #: Whether the field changes with time (False: a field fixed in its frame, which an engine writes once).
+    time_dependent: ClassVar[bool] = True
     evaluator: ClassVar[int]
     T: np.ndarray = _EMPTY_TABLE
 
@@ -211,6 +223,7 @@ class UniformField(Field):
     keys = {"H_world": Key("vector3", required=True, help="[A/m], world components")}
     slots = ("Hx", "Hy", "Hz")
     frame = "world"
+    time_dependent = False
     evaluator = kernel.CONSTANT_FIELD
 
     def __init__(self, H_world):
