@@ -20,8 +20,24 @@ def validate_inertia(inertia, *, name: str = "inertia") -> np.ndarray:
 
     A physical rigid body has positive principal moments that satisfy the triangle inequality
     ``I_i <= I_j + I_k`` (equality for a thin plate). Anything else is a :class:`ValueError` saying
-    which moment fails.
+    which moment fails. (Tensors that passed are remembered: a study checks the same one at every run.)
     """
+    if isinstance(inertia, np.ndarray) and inertia.dtype == float and inertia.shape in ((3,), (3, 3)):
+        known = _VALID.get((inertia.shape, inertia.tobytes()))
+        if known is not None:
+            return known.copy()
+    tensor = _validate_inertia(inertia, name)
+    if len(_VALID) > 256:
+        _VALID.clear()
+    a = np.asarray(inertia, dtype=float)
+    _VALID[(a.shape, a.tobytes())] = tensor.copy()
+    return tensor
+
+
+_VALID: dict = {}
+
+
+def _validate_inertia(inertia, name: str) -> np.ndarray:
     try:
         a = np.asarray(inertia, dtype=float)
     except (TypeError, ValueError) as exc:

@@ -7,6 +7,8 @@ data="mx my mz"/></custom>`` [A m^2] in body components.
 
 from __future__ import annotations
 
+import copy
+
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -78,12 +80,29 @@ def load_mujoco(path) -> tuple[mujoco.MjModel, MJCFBody]:
     stiffness, damping, armature or friction loss on the free joint. Gravity is switched off instead, with a note: a uniform field
     exerts no torque about the centre of mass, so the attitude motion is unchanged.
 
-    Returns the prepared :class:`mujoco.MjModel` and the :class:`MJCFBody`.
+    Returns the prepared :class:`mujoco.MjModel` (a copy of its own, free to change) and the :class:`MJCFBody`.
+    A file is compiled once per process while it is unchanged (a study runs MuJoCo hundreds of times on it).
     """
     path = Path(path)
     where = str(path)
     if not path.is_file():
         raise ModelError(f"{where}: no such MJCF file")
+    stat = path.stat()
+    key = (str(path.resolve()), where, stat.st_mtime_ns, stat.st_size)
+    if key not in _LOADED:
+        if len(_LOADED) > 32:
+            _LOADED.clear()
+        _LOADED[key] = _load_mujoco(path, where)
+    model, body = _LOADED[key]
+    for note in body.notes:
+        warnings.warn(f"{where}: {note}", stacklevel=2)
+    return copy.copy(model), body
+
+
+_LOADED: dict = {}
+
+
+def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
     try:
         model = mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:  # MuJoCo's parse/compile error, which names the line
@@ -164,8 +183,6 @@ def load_mujoco(path) -> tuple[mujoco.MjModel, MJCFBody]:
                         model_moments=tuple(moments.tolist()), model_iquat=tuple(model.body_iquat[body_id].tolist()))
     except ValueError as exc:
         raise ModelError(f"{where}: body '{body_name}': {exc}") from None
-    for note in notes:
-        warnings.warn(f"{where}: {note}", stacklevel=2)
     return model, body
 
 

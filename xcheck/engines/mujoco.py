@@ -84,6 +84,40 @@ def _prepare(model) -> tuple[mujoco.MjModel, MJCFBody]:
     raise ValueError(f"model: expected an MJCF path or an MJCFBody, got {type(model).__name__}")
 
 
+_MODELS: dict = {}
+
+
+def _model_for_runs(model, inertia_moments) -> tuple[mujoco.MjModel, MJCFBody]:
+    """The compiled model a run uses, kept per process for its file (unchanged) and inertia: every run sets the
+    options it depends on (integrator, step, flags), so that runs share it instead of compiling the MJCF each time
+    (a study runs MuJoCo hundreds of times)."""
+    if not isinstance(model, (str, Path, MJCFBody)):
+        return _with_moments(*_prepare(model), inertia_moments)  # refused there, by name
+    path = Path(model.path if isinstance(model, MJCFBody) else model)
+    try:
+        stat = path.stat()
+    except OSError:  # load_mujoco says what is wrong with it
+        return _with_moments(*_prepare(model), inertia_moments)
+    moments = None if inertia_moments is None else tuple(float(x) for x in np.ravel(inertia_moments))
+    key = (str(path), stat.st_mtime_ns, stat.st_size, moments)
+    if key not in _MODELS:
+        if len(_MODELS) > 16:
+            _MODELS.clear()
+        _MODELS[key] = _with_moments(*_prepare(model), inertia_moments)
+    return _MODELS[key]
+
+
+def _with_moments(m, body, inertia_moments):
+    if inertia_moments is not None:
+        from ..body import validate_inertia
+
+        moments = np.asarray(inertia_moments, dtype=float)
+        validate_inertia(moments, name="inertia_moments")
+        m.body_inertia[body.body_id] = moments
+        mujoco.mj_setConst(m, mujoco.MjData(m))  # the constants derived from it (dof_M0, invweights) follow
+    return m, body
+
+
 def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, torque=None,
              torque_mode: str = "callback", inertia_moments=None) -> Trajectory:
     """Run MuJoCo on one free body.
@@ -112,7 +146,7 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
         raise ValueError(f"integrator: unknown {integrator!r}; expected one of {', '.join(INTEGRATORS)}")
     if torque_mode not in ("callback", "held"):
         raise ValueError(f"torque_mode: expected 'callback' or 'held', got {torque_mode!r}")
-    m, body = _prepare(model)
+    m, body = _model_for_runs(model, inertia_moments)
     q0, omega0 = check_initial_state(q0, omega0)
     n, last_h = step_plan(dt, duration)
     if isinstance(torque, TorqueModel):
@@ -120,13 +154,6 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
     elif torque is not None and not callable(torque):
         raise ValueError(f"torque: expected None, a TorqueModel or a callable (t, q, omega) -> (3,), got "
                          f"{type(torque).__name__}")
-    if inertia_moments is not None:
-        from ..body import validate_inertia
-
-        moments = np.asarray(inertia_moments, dtype=float)
-        validate_inertia(moments, name="inertia_moments")
-        m.body_inertia[body.body_id] = moments
-        mujoco.mj_setConst(m, mujoco.MjData(m))  # the constants derived from it (dof_M0, invweights) follow
     m.opt.integrator = INTEGRATORS[integrator]
     m.opt.timestep = float(dt)
     m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET  # a blow-up must show, not restart from rest
@@ -144,8 +171,10 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
     k = _first_bad_row(qpos, qvel)
     stop = k if k is not None else (n + 1)
     q = continuous_quaternions(qpos[:stop, qa + 3:qa + 7])
+    # its forward dynamics: four evaluations a step in RK4, one in the Euler variants
+    evaluations = (4 if integrator == "rk4" else 1) * (stop - 1)
     traj = Trajectory(t=t[:stop], q=q, omega=qvel[:stop, da + 3:da + 6].copy(), method=method, dt=float(dt),
-                      extras={"mujoco_version": mujoco.__version__})
+                      extras={"mujoco_version": mujoco.__version__, "evaluations": evaluations})
     if messages or k is not None:
         traj.status = "failed"
         where = f"at t = {t[k]:.6g} s" if k is not None else "during the run"

@@ -90,7 +90,7 @@ def _singular_message(info, sequence, y_last, t_stop):
 
 
 def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, torque=None,
-              sequence: str = "323") -> Trajectory:
+              sequence: str = "323", rtol: float | None = None) -> Trajectory:
     """Integrate rigid-body attitude motion with one of :data:`METHODS`.
 
     Parameters
@@ -112,11 +112,15 @@ def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, t
         callable runs the same kernel interpreted (slower).
     sequence : str
         Euler sequence of ``euler-rk4`` (default ``"323"``, seed 001's Z-Y-Z).
+    rtol : float, optional
+        An adaptive method's relative tolerance (its absolute tolerance keeps the method's own proportion; None:
+        its defaults). ``dt`` is then its output step.
 
     Returns
     -------
     Trajectory
-        ``t`` (n+1,), ``q`` (n+1, 4), ``omega`` (n+1, 3), ``status`` "ok" | "singular" | "failed".
+        ``t`` (n+1,), ``q`` (n+1, 4), ``omega`` (n+1, 3), ``status`` "ok" | "singular" | "failed";
+        ``extras["evaluations"]``, the right-hand-side evaluations it took.
     """
     info = _method(method)
     I = validate_inertia(inertia)
@@ -127,10 +131,18 @@ def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, t
     rot._check_seq(sequence)
     tk, P, T, python = _resolve_torque(torque, duration)
     t = time_grid(n, float(dt), float(duration))
+    if rtol is not None and not info.adaptive:
+        raise ValueError(f"rtol: {method} is a fixed-step method; a tolerance applies to an adaptive one "
+                         f"({', '.join(m.name for m in METHODS.values() if m.adaptive)})")
     if info.kernel is None:
         from .scipy_rk45 import integrate_scipy_rk45
 
-        return integrate_scipy_rk45(I, q0, omega0, t, torque, float(dt))
+        rel, abs_ = info.tolerances
+        if rtol is not None:
+            if not (np.isfinite(rtol) and 0 < rtol < 1):
+                raise ValueError(f"rtol: expected a relative tolerance in (0, 1), got {rtol!r}")
+            rel, abs_ = float(rtol), float(rtol) * abs_ / rel
+        return integrate_scipy_rk45(I, q0, omega0, t, torque, float(dt), rtol=rel, atol=abs_)
 
     kern = _kernels_for(python=python)
     m = kern.STATE_SIZE[info.kernel]
@@ -140,6 +152,7 @@ def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, t
     steps, status = kern.run_one(info.kernel, args, y0, I, np.linalg.inv(I), out)
     y = out[: steps + 1, :m]
     q, omega, extras = info.decode(y, sequence)
+    extras["evaluations"] = info.stages * steps  # of the steps completed
     traj = Trajectory(t=t[: steps + 1], q=q, omega=omega, method=info.name, dt=float(dt), extras=extras)
     if status == kern.SINGULAR:
         traj.status = "singular"

@@ -441,28 +441,51 @@ def deriv_formulation1(t, y, dy, I, Iinv, tk, tP, tT, work):
     ``p'' = (G^T (1/2 I'^-1 r1) + p r2) / |p|^2``.
     """
     p = y[0:4]
-    pd = y[4:8]
-    tau, w, Gpd, IGpd, r1, hIr1 = work[0:3], work[3:6], work[6:9], work[9:12], work[12:15], work[15:18]
-    GdT, GT = work[18:22], work[22:26]
-    G_times(p, pd, Gpd)
-    for i in range(3):
-        w[i] = 2.0 * Gpd[i]  # eq. 140
+    tau, w = work[0:3], work[3:6]
+    e0, e1, e2, e3 = y[0], y[1], y[2], y[3]
+    d0, d1, d2, d3 = y[4], y[5], y[6], y[7]
+    # G(p) p' (eq. 94)
+    g0 = -e1 * d0 + e0 * d1 + e3 * d2 - e2 * d3
+    g1 = -e2 * d0 - e3 * d1 + e0 * d2 + e1 * d3
+    g2 = -e3 * d0 + e2 * d1 - e1 * d2 + e0 * d3
+    w[0] = 2.0 * g0  # eq. 140
+    w[1] = 2.0 * g1
+    w[2] = 2.0 * g2
     torque_eval(tk, tP, tT, t, p, w, tau)
     # r1 = t' - 4 G Gdot^T I' G p'
-    matvec(I, Gpd, IGpd)
-    GT_times(pd, IGpd, GdT)  # G(p')^T I' G p'
-    G_times(p, GdT, r1)
-    for i in range(3):
-        r1[i] = tau[i] - 4.0 * r1[i]
-    r2 = -(pd[0] * pd[0] + pd[1] * pd[1] + pd[2] * pd[2] + pd[3] * pd[3])
-    matvec(Iinv, r1, hIr1)
-    for i in range(3):
-        hIr1[i] *= 0.5
-    GT_times(p, hIr1, GT)
-    pp = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3]
-    for i in range(4):
-        dy[i] = pd[i]
-        dy[4 + i] = (GT[i] + p[i] * r2) / pp
+    v0 = I[0, 0] * g0 + I[0, 1] * g1 + I[0, 2] * g2
+    v1 = I[1, 0] * g0 + I[1, 1] * g1 + I[1, 2] * g2
+    v2 = I[2, 0] * g0 + I[2, 1] * g1 + I[2, 2] * g2
+    # G(p')^T I' G p'
+    u0 = -d1 * v0 - d2 * v1 - d3 * v2
+    u1 = d0 * v0 - d3 * v1 + d2 * v2
+    u2 = d3 * v0 + d0 * v1 - d1 * v2
+    u3 = -d2 * v0 + d1 * v1 + d0 * v2
+    r0 = -e1 * u0 + e0 * u1 + e3 * u2 - e2 * u3
+    r1_ = -e2 * u0 - e3 * u1 + e0 * u2 + e1 * u3
+    r2_ = -e3 * u0 + e2 * u1 - e1 * u2 + e0 * u3
+    r0 = tau[0] - 4.0 * r0
+    r1_ = tau[1] - 4.0 * r1_
+    r2_ = tau[2] - 4.0 * r2_
+    r2 = -(d0 * d0 + d1 * d1 + d2 * d2 + d3 * d3)
+    h0 = (Iinv[0, 0] * r0 + Iinv[0, 1] * r1_ + Iinv[0, 2] * r2_) * 0.5
+    h1 = (Iinv[1, 0] * r0 + Iinv[1, 1] * r1_ + Iinv[1, 2] * r2_) * 0.5
+    h2 = (Iinv[2, 0] * r0 + Iinv[2, 1] * r1_ + Iinv[2, 2] * r2_) * 0.5
+    # G(p)^T (1/2 I'^-1 r1)
+    q0 = -e1 * h0 - e2 * h1 - e3 * h2
+    q1 = e0 * h0 - e3 * h1 + e2 * h2
+    q2 = e3 * h0 + e0 * h1 - e1 * h2
+    q3 = -e2 * h0 + e1 * h1 + e0 * h2
+    pp = e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3
+    dy[0] = d0
+    dy[1] = d1
+    dy[2] = d2
+    dy[3] = d3
+    inv_pp = 1.0 / pp
+    dy[4] = (q0 + e0 * r2) * inv_pp
+    dy[5] = (q1 + e1 * r2) * inv_pp
+    dy[6] = (q2 + e2 * r2) * inv_pp
+    dy[7] = (q3 + e3 * r2) * inv_pp
     return OK
 
 
@@ -499,9 +522,12 @@ def deriv_formulation2(t, y, dy, I, Iinv, tk, tP, tT, work):
     """Seed 004 Formulation II: ``p' = 1/2 G(p)^T w'`` (eq. 162), ``w' = I'^-1 (t' - w' x I' w')`` (eq. 158)."""
     p = y[0:4]
     w = y[4:7]
-    GT_times(p, w, dy[0:4])
-    for i in range(4):
-        dy[i] *= 0.5
+    e0, e1, e2, e3 = y[0], y[1], y[2], y[3]
+    w0, w1, w2 = y[4], y[5], y[6]
+    dy[0] = (-e1 * w0 - e2 * w1 - e3 * w2) * 0.5  # G(p)^T w' (eq. 94), halved
+    dy[1] = (e0 * w0 - e3 * w1 + e2 * w2) * 0.5
+    dy[2] = (e3 * w0 + e0 * w1 - e1 * w2) * 0.5
+    dy[3] = (-e2 * w0 + e1 * w1 + e0 * w2) * 0.5
     tau = work[0:3]
     torque_eval(tk, tP, tT, t, p, w, tau)
     euler_equation(I, Iinv, tau, w, dy[4:7])
@@ -824,25 +850,32 @@ if not PYTHON_MODE:
 # ------------------------------------------------------------------------------------------------
 # the steps: the stage arithmetic for every tableau, and the commutator-free step
 # ------------------------------------------------------------------------------------------------
+#: The classical RK4's weights b = (1/6, 1/3, 1/3, 1/6) as floats (what the tableau's exact fractions give).
+RK4_B0, RK4_B1 = 1.0 / 6.0, 1.0 / 3.0
+
+
 @ijit
 def rk_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, tP, tT, axes, sing_tol, work):
-    """One explicit Runge-Kutta step ``y <- y + h sum_i b_i K_i`` with ``K_i = f(t + c_i h, y + h sum_j A_ij K_j)``.
+    """One step of the classical RK4 (:data:`~xcheck.integrators.tableau.RK4`, its coefficients as constants):
+    ``y <- y + h/6 (K_1 + 2 K_2 + 2 K_3 + K_4)`` with ``K_i = f(t + c_i h, y + h a_i K_(i-1))``, ``a = (0, 1/2, 1/2,
+    1)``; the same numbers as the general stage sums ``y + h sum_j A_ij K_j`` (the zeros of A add nothing, the
+    halves are exact).
 
-    ``Ahat`` (used when ``use_hat``) gives a second set of stage values passed to the derivative as
-    ``yhat``: only the printed Lie algorithm 172 needs it. ``y`` is left unchanged if a stage fails.
+    ``Ahat`` (used when ``use_hat``) gives a second set of stage values passed to the derivative as ``yhat``: only
+    the printed Lie algorithm 172 needs it. ``y`` is left unchanged if a stage fails.
     """
-    s = b.shape[0]
     m = STATE_SIZE[scheme]
     first = FIRST[scheme]
-    for l in range(first):  # constant in the step (a reference quaternion)
+    for l in range(m):  # the first components are constant in the step (a reference quaternion)
         Y[l] = y[l]
-        Yhat[l] = y[l]
-    for i in range(s):
-        for l in range(first, m):
-            acc = 0.0
-            for j in range(i):
-                acc += A[i, j] * K[j, l]
-            Y[l] = y[l] + h * acc
+    if use_hat:
+        for l in range(m):
+            Yhat[l] = y[l]
+    for i in range(4):
+        if i > 0:
+            Ki = K[i - 1]
+            for l in range(first, m):
+                Y[l] = y[l] + h * (Ki[l] if i == 3 else 0.5 * Ki[l])
         if use_hat:
             for l in range(first, m):
                 acc = 0.0
@@ -853,11 +886,9 @@ def rk_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, tP
                        work)
         if status != OK:
             return status
+    K0, K1, K2, K3 = K[0], K[1], K[2], K[3]
     for l in range(first, m):
-        acc = 0.0
-        for i in range(s):
-            acc += b[i] * K[i, l]
-        y[l] += h * acc
+        y[l] += h * (((RK4_B0 * K0[l] + RK4_B1 * K1[l]) + RK4_B1 * K2[l]) + RK4_B0 * K3[l])
     return OK
 
 

@@ -17,7 +17,9 @@ class Method:
 
     ``kernel`` is a scheme of :mod:`xcheck.integrators._kernels` (None: not a fixed-step kernel method);
     ``expected_order`` None means adaptive (no order in the step); ``dexp_A`` the dexp-argument matrix of
-    the printed algorithm 172 (None: the tableau's own)."""
+    the printed algorithm 172 (None: the tableau's own); ``tolerances``: an adaptive method's default relative
+    and absolute tolerances (an ``rtol`` given to it keeps their proportion); ``demonstration``: why the method
+    exists although nobody should use it (a seed's misprint shown at work): the report never recommends it."""
 
     name: str
     kernel: int | None
@@ -26,6 +28,23 @@ class Method:
     seed: str
     tableau: ButcherTableau = RK4
     dexp_A: tuple | None = None
+    tolerances: tuple | None = None
+    demonstration: str | None = None
+
+    def __post_init__(self):
+        if self.kernel is not None and self.tableau != RK4:
+            raise ValueError(f"{self.name}: the kernels' stage loop is the classical RK4 (its coefficients compiled in "
+                             f"as constants); a method on the tableau {self.tableau.name!r} needs a stage loop of its "
+                             "own in xcheck.integrators._kernels")
+
+    @property
+    def adaptive(self) -> bool:
+        return self.tolerances is not None
+
+    @property
+    def stages(self) -> int:
+        """Right-hand-side evaluations a step (the commutator-free step has four whatever the tableau)."""
+        return 4 if K.SCHEMES[self.kernel].step == "cf4" else self.tableau.stages
 
     @property
     def encode(self):
@@ -47,7 +66,9 @@ METHODS: dict[str, Method] = {m.name: m for m in [
     Method("lie-rkmk4", K.LIE, 4, "Runge-Kutta-Munthe-Kaas 4 on so(3) with dexp^-1 and exp_S3 (unit norm by "
            "construction)", "seed 004 §2.5, eq. 166-172 (third stage corrected)"),
     Method("lie-thesis-172", K.LIE, 2, "seed 004 algorithm 172 as printed (1/2 k1 in the third stage's dexp^-1)",
-           "seed 004 §2.5, eq. 172", dexp_A=THESIS_172_DEXP_A),
+           "seed 004 §2.5, eq. 172", dexp_A=THESIS_172_DEXP_A,
+           demonstration="seed 004's algorithm 172 as printed, to show its misprint: order 2 where lie-rkmk4, the "
+                         "same method corrected, has order 4"),
     Method("lie-cf4", K.CF4, 4, "commutator-free Lie group method of order 4 on S3: exponentials of stage rates, "
            "no dexp^-1 (Celledoni, Marthinsen, Owren 2003)", "seed 004 §2.5's state, CMO 2003 CF4"),
     Method("dcm-rk4", K.DCM, 4, "RK4 on R' = R [w x]; Björck-Bowie orthonormalisation after each step",
@@ -57,6 +78,6 @@ METHODS: dict[str, Method] = {m.name: m for m in [
            "re-centred beyond 180 deg)", "seed 000 §1.5"),
     Method("mrp-rk4", K.MRP, 4, "RK4 on the modified Rodrigues parameters (shadow set when |s| > 1 after a step): "
            "the kinematics Basilisk's hub integrates", "Schaub & Junkins; Basilisk's spacecraft hub"),
-    Method("scipy-rk45", None, None, "scipy solve_ivp RK45, default tolerances (rtol 1e-3, atol 1e-6), sampled "
-           "on the grid", "seed 001, appendix A (its own choice)"),
+    Method("scipy-rk45", None, None, "scipy solve_ivp RK45 (its defaults rtol 1e-3, atol 1e-6: seed 001's choice), "
+           "sampled on the output grid", "seed 001, appendix A (its own choice)", tolerances=(1e-3, 1e-6)),
 ]}
