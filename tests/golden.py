@@ -33,7 +33,8 @@ import sys
 from pathlib import Path
 
 GOLDEN = Path(__file__).parent / "data" / "quick-report.json"
-_VOLATILE = {"created", "versions", "machine", "wall_time", "throughput", "steps_per_second"}
+_VOLATILE = {"created", "versions", "machine", "wall_time", "throughput", "steps_per_second", "solutions_per_second",
+             "repeats"}
 _ORDERS = {"observed_order", "local_orders"}
 _NUMBER = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")
 

@@ -5,7 +5,7 @@ from xcheck.results import Check, MethodResult, Run, json_number
 from xcheck.study import _verdict
 
 RUN_KEYS = {"dt", "status", "attitude_error", "max_attitude_error", "omega_error", "max_omega_error", "energy_drift",
-            "momentum_drift", "norm_drift", "wall_time", "steps_per_second"}
+            "momentum_drift", "norm_drift", "wall_time", "steps_per_second", "repeats", "evaluations"}
 
 
 def test_run_json_keys():

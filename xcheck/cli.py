@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import signal
 import sys
@@ -183,6 +184,12 @@ def _cmd_run(args) -> int:
     scenario = resolve_scenario(args.scenario)
     if args.method not in RUNNERS:
         raise UsageError(f"--method: unknown {args.method!r}; expected one of {', '.join(RUNNERS)}")
+    runner = RUNNERS[args.method]
+    if args.rtol is not None and not runner.adaptive:
+        raise UsageError(f"--rtol: {args.method} is a fixed-step method; a tolerance applies to an adaptive one "
+                         f"({', '.join(n for n, r in RUNNERS.items() if r.adaptive)})")
+    if args.rtol is not None and not (math.isfinite(args.rtol) and 0 < args.rtol < 1):
+        raise UsageError(f"--rtol: expected a relative tolerance in (0, 1), got {args.rtol:g}")
     try:
         check_step(args.dt, scenario.duration, runs_at_once=1)
     except ValueError as exc:
@@ -193,7 +200,7 @@ def _cmd_run(args) -> int:
         check_output_file(args.plot, "--plot", suffixes=PLOT_SUFFIXES)
     ctx = run_context(scenario)
     t0 = time.perf_counter()
-    traj = RUNNERS[args.method].run(ctx, args.dt)
+    traj = runner.run(ctx, args.dt) if args.rtol is None else runner.run(ctx, args.dt, args.rtol)
     wall = time.perf_counter() - t0
     print(f"{scenario.name} / {args.method} at dt = {args.dt:g} s: {traj.status} ({len(traj.t) - 1} steps, "
           f"{wall:.3g} s)")
@@ -608,7 +615,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="one trajectory")
     p.add_argument("scenario")
     p.add_argument("--method", required=True)
-    p.add_argument("--dt", type=float, required=True, help="step [s]")
+    p.add_argument("--dt", type=float, required=True, help="step [s] (an adaptive method's output step)")
+    p.add_argument("--rtol", type=float, help="an adaptive method's relative tolerance (default: its own)")
     p.add_argument("--csv", metavar="PATH", help="write the trajectory as CSV")
     p.add_argument("--plot", metavar="PATH", help="write a PNG plot")
     p.set_defaults(func=_cmd_run)

@@ -17,7 +17,8 @@ xcheck[postgres]``), with three tables:
                  ``observed_order`` ``finest_error`` ``verdict`` (1 pass, 0 fail) per method; ``passed`` and
                  ``order_floor`` per scenario (method ``""``); ``check:<name>`` (1 passed, 0 failed) per check;
                  ``bench_steps_per_second`` per ``xcheck bench`` row (scenario, method, dt NULL, the batch size
-                 in the method name when > 1).
+                 in the method name when > 1). An adaptive method's runs share one output step: each is recorded
+                 under the method's name and its tolerance (``basilisk-rkf45 rtol=1e-06``), at that step.
 ``sweep_cells``  (schema 2) the parameters of a sweep's cells (``xcheck sweep``): run id, scenario (the cell's
                  name in ``metrics``: ``<base>/<cell id>``), parameter (an axis, one component of a vector axis, or
                  its summary: ``dipole_scale``, ``rate_x``, ``attitude_angle_deg``), value (a number) or text (a
@@ -341,15 +342,17 @@ def report_metrics(results: dict):
             if finest is not None:
                 yield name, method, None, "finest_error", finest
             for r in m["runs"]:
+                run_method = method if r.get("rtol") is None else f"{method} rtol={r['rtol']:.0e}"
                 for metric in RUN_METRICS:
                     if r.get(metric) is not None:
-                        yield name, method, r["dt"], metric, r[metric]
+                        yield name, run_method, r["dt"], metric, r[metric]
 
 
 def finest_error(method_doc: dict) -> float | None:
-    """A method's attitude error at its finest good run (of a ``results.json`` method entry), or None."""
+    """A method's attitude error at its finest good run (an adaptive method's: at its tightest tolerance) of a
+    ``results.json`` method entry, or None."""
     ok = [r for r in method_doc["runs"] if r.get("status") == "ok" and r.get("attitude_error") is not None]
-    return min(ok, key=lambda r: r["dt"])["attitude_error"] if ok else None
+    return min(ok, key=lambda r: r["dt"] if r.get("rtol") is None else r["rtol"])["attitude_error"] if ok else None
 
 
 def bench_metrics(throughput):

@@ -143,14 +143,21 @@ class StepWithin:
     """The largest step [s] at which a method stays within a tolerance over the run, and the wall time [s] a
     run at that step costs. ``how``: ``"interpolated"`` (on the log-log line between the two tested steps that
     bracket the tolerance), ``"tested"`` (the coarsest tested step is within: a larger one may be too) or
-    ``"none"`` (not even the finest tested step is; ``dt`` and ``wall_time`` are None)."""
+    ``"none"`` (not even the finest tested step is; ``dt`` and ``wall_time`` are None). For an adaptive method
+    the same of its own relative tolerance: ``rtol`` the loosest that keeps the run within (``dt`` None)."""
 
     dt: float | None
     wall_time: float | None
     how: str
+    rtol: float | None = None
+
+    @property
+    def reached(self) -> bool:
+        return self.how != "none"
 
     def to_json(self) -> dict:
-        return {"dt": self.dt, "wall_time": self.wall_time, "how": self.how}
+        return {"dt": self.dt, "wall_time": self.wall_time, "how": self.how,
+                **({"rtol": self.rtol} if self.rtol is not None else {})}
 
 
 def largest_step_within(dts, errors, wall_times, tol: float) -> StepWithin:

@@ -28,9 +28,13 @@ def json_number(v):
 
 @dataclass
 class Run:
-    """One run of one method at one step. Errors are against the reference at the final time (``attitude_error``
-    [rad], ``omega_error`` [rad/s]) and their maxima over the run; drifts are relative (energy, momentum) or
-    absolute (quaternion norm); ``None`` where not measured (a failed run, a torqued scenario's invariants)."""
+    """One run of one method at one step (an adaptive method's: at one relative tolerance ``rtol``, with ``dt`` its
+    output step). Errors are against the reference at the final time (``attitude_error`` [rad], ``omega_error``
+    [rad/s]) and their maxima over the run; drifts are relative (energy, momentum) or absolute (quaternion norm);
+    ``None`` where not measured (a failed run, a torqued scenario's invariants). ``wall_time`` [s] is the best of
+    ``repeats`` runs (short runs are repeated until a small budget is spent); ``evaluations`` the right-hand-side
+    (or engine stage) evaluations of one run, a measure of work that does not depend on the machine (None where
+    the engine does not report it)."""
 
     dt: float
     status: str = "ok"  # "ok" | "singular" | "failed"
@@ -44,17 +48,26 @@ class Run:
     norm_drift: float | None = None
     wall_time: float | None = None
     steps_per_second: float | None = None
+    repeats: int | None = None
+    evaluations: int | None = None
+    rtol: float | None = None
 
     @property
     def ok(self) -> bool:
         return self.status == "ok"
 
+    @property
+    def setting(self) -> float:
+        """What a study varies: the step, or an adaptive method's tolerance (finer: smaller)."""
+        return self.dt if self.rtol is None else self.rtol
+
     @classmethod
-    def failed(cls, dt, status, message, wall_time) -> "Run":
-        return cls(dt=dt, status=status, message=message, wall_time=wall_time)
+    def failed(cls, dt, status, message, wall_time, rtol=None) -> "Run":
+        return cls(dt=dt, status=status, message=message, wall_time=wall_time, rtol=rtol)
 
     def to_json(self) -> dict:
-        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "message"}
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "message"
+               and not (f.name == "rtol" and self.rtol is None)}
         if not self.ok or self.message:  # a failure's reason, or a good run's note (an engine's rounded clock)
             out["message"] = self.message
         return out
@@ -111,14 +124,20 @@ class MethodResult:
         return self.status
 
     @property
+    def adaptive(self) -> bool:
+        """Whether the runs are a ladder of tolerances (an adaptive method) rather than of steps."""
+        return any(r.rtol is not None for r in self.runs)
+
+    @property
     def finest(self) -> Run | None:
-        """The finest-step run that completed, or None."""
+        """The completed run at the finest step (an adaptive method's: at the tightest tolerance), or None."""
         ok = [r for r in self.runs if r.ok]
-        return min(ok, key=lambda r: r.dt) if ok else None
+        return min(ok, key=lambda r: r.setting) if ok else None
 
     def to_json(self) -> dict:
         return {"engine": self.engine, "expected_order": self.expected_order, "observed_order": self.observed_order,
                 "order_note": self.order_note, "local_orders": self.local_orders, "status": self.status,
                 "runs": [r.to_json() for r in self.runs], "verdict": self.verdict,
                 "largest_step_within": {k: w.dt for k, w in self.within.items()},
+                **({"loosest_tolerance_within": {k: w.rtol for k, w in self.within.items()}} if self.adaptive else {}),
                 "cost_within": {k: w.to_json() for k, w in self.within.items()}}

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from .engines import available
+from .engines import WITHOUT_VARIABLE, available
 from .integrators import METHODS, integrate, integrate_batch
 from .trajectory import Trajectory
 
@@ -36,7 +36,9 @@ class Runner:
     ``agreement``: the study checks this method against our best fourth-order method at the finest step (an
     engine's RK4); ``line_style``: how plots draw it (ours solid, engines dashed); ``run_batch(ctx, q0 (N, 4),
     omega0 (N, 3), dt)``: many initial states at once, for the methods that have a batch path (``xcheck bench``
-    times it)."""
+    times it). An ``adaptive`` method controls its own steps: its ``run(ctx, dt, rtol=None)`` takes a relative
+    tolerance (None: its defaults) and ``dt`` is its output step; a study runs it over a ladder of tolerances.
+    ``demonstration``: why a method exists that nobody should use (the report never recommends it)."""
 
     name: str
     engine: str  # "xcheck" | "mujoco"
@@ -53,6 +55,8 @@ class Runner:
     #: the method of ours that is the same scheme (an engine's RK4 on its own attitude coordinates): its
     #: trajectory partner in a study, and the report's explanation of the engine's error
     twin: str | None = None
+    adaptive: bool = False
+    demonstration: str | None = None
 
     def order_for(self, torque: dict | None) -> tuple[int | None, str | None]:
         """The order expected of this method with a scenario's torque, and why when it is not the method's own."""
@@ -63,9 +67,9 @@ class Runner:
 
 
 def _ours(name):
-    def run(ctx: RunContext, dt: float) -> Trajectory:
+    def run(ctx: RunContext, dt: float, rtol: float | None = None) -> Trajectory:
         return integrate(name, ctx.inertia, ctx.q0, ctx.omega0, dt=dt, duration=ctx.duration, torque=ctx.torque,
-                         sequence=ctx.sequence)
+                         sequence=ctx.sequence, rtol=rtol)
     return run
 
 
@@ -86,17 +90,19 @@ def _mujoco(integrator):
 
 
 def _basilisk(integrator):
-    def run(ctx: RunContext, dt: float) -> Trajectory:
+    def run(ctx: RunContext, dt: float, rtol: float | None = None) -> Trajectory:
         from .engines.basilisk import simulate
 
         return simulate(ctx.inertia, integrator=integrator, q0=ctx.q0, omega0=ctx.omega0, dt=dt,
-                        duration=ctx.duration, torque=ctx.torque)
+                        duration=ctx.duration, torque=ctx.torque, rtol=rtol)
     return run
 
 
 def _basilisk_input_order(torque: dict | None):
     """The order Basilisk's held inputs leave with a scenario's torque (see :mod:`xcheck.engines.basilisk`)."""
-    if torque is None or torque.get("kind") != "magnetic" or torque.get("field") == "uniform":
+    from .fields import FIELDS
+
+    if torque is None or torque.get("kind") != "magnetic" or not FIELDS[torque["field"]].time_dependent:
         return None, None
     return 2, ("Basilisk reads its inputs once per step: the field is written at each step's midpoint and held "
                "over the step (a midpoint rule in time), so its order is 2 with this field")
@@ -105,13 +111,14 @@ def _basilisk_input_order(torque: dict | None):
 #: Basilisk's methods: registered when its package (the extra ``basilisk``) is installed.
 BASILISK_METHODS = {
     "basilisk-rk4": (4, "Basilisk's RK4 on its hub (MRP attitude, torque through its own effectors)"),
-    "basilisk-rkf45": (None, "Basilisk's adaptive RKF45 inside each task step (its default tolerances)"),
-    "basilisk-rkf78": (None, "Basilisk's adaptive RKF78 inside each task step (its default tolerances)"),
+    "basilisk-rkf45": (None, "Basilisk's adaptive RKF45 inside each task step (defaults rtol 1e-4, atol 1e-8)"),
+    "basilisk-rkf78": (None, "Basilisk's adaptive RKF78 inside each task step (defaults rtol 1e-4, atol 1e-8)"),
 }
 
 RUNNERS: dict[str, Runner] = {
     name: Runner(name, "xcheck", m.expected_order, m.summary, _ours(name),
-                 run_batch=_ours_batch(name) if m.kernel is not None else None)
+                 run_batch=_ours_batch(name) if m.kernel is not None else None, adaptive=m.adaptive,
+                 demonstration=m.demonstration)
     for name, m in METHODS.items()}
 RUNNERS.update({
     f"mujoco-{i}": Runner(f"mujoco-{i}", "mujoco", order, summary, _mujoco(i), agreement=(i == "rk4"), line_style="--",
@@ -126,13 +133,20 @@ RUNNERS.update({
 if available("basilisk"):
     RUNNERS.update({name: Runner(name, "basilisk", order, summary, _basilisk(name.removeprefix("basilisk-")),
                                  agreement=(name == "basilisk-rk4"), line_style=":", order_with=_basilisk_input_order,
-                                 twin="mrp-rk4" if name == "basilisk-rk4" else None)
+                                 twin="mrp-rk4" if name == "basilisk-rk4" else None, adaptive=order is None)
                     for name, (order, summary) in BASILISK_METHODS.items()})
 
 
 def unknown_method(name: str) -> str:
     """The message for a method name that is not a runner: an engine's that is not installed says how to get it."""
     if name in BASILISK_METHODS:
+        import importlib.util
+        import os
+
+        left_out = {e.strip() for e in os.environ.get(WITHOUT_VARIABLE, "").split(",")}
+        if "basilisk" in left_out and importlib.util.find_spec("Basilisk") is not None:
+            return (f"{name!r} is Basilisk's, which ${WITHOUT_VARIABLE} ({os.environ.get(WITHOUT_VARIABLE, '')!r}) "
+                    "leaves out here")
         return (f"{name!r} is Basilisk's, which is not installed here: pip install 'xcheck[basilisk]' (the PyPI "
                 "package bsk)")
     return f"unknown method {name!r}; expected one of {', '.join(RUNNERS)}"

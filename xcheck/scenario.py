@@ -25,13 +25,24 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "bundled_scenarios", "resolve_scenario", "check_name",
-           "check_steps", "DEFAULT_STEPS", "QUICK_STEPS", "SCENARIO_DIR"]
+           "check_steps", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
+           "SCENARIO_DIR"]
 
 SCENARIO_DIR = BUNDLED_MODELS / "scenarios"
 #: Seed 004 §3.3: 1/2, 1/4, ..., 1/4096 s.
 DEFAULT_STEPS = tuple(2.0**-k for k in range(1, 13))
 #: ``--quick``: five steps, 1/64 ... 1/1024 s, where every fourth-order method is near its asymptotic range.
 QUICK_STEPS = tuple(2.0**-k for k in range(6, 11))
+#: An adaptive method's study is a ladder of its own relative tolerances (its absolute tolerance keeps the
+#: method's own proportion), not of its step: 1e-3 (scipy's default, seed 001's) to 1e-10 by decades ...
+DEFAULT_TOLERANCES = tuple(10.0**-k for k in range(3, 11))
+#: ... and three of them, every second decade, in a quick study ...
+QUICK_TOLERANCES = (1e-3, 1e-5, 1e-7)
+#: ... at one output step [s], where its trajectory is compared with the reference: the coarsest step of a
+#: study (seed 004's). It is also the longest step an engine's adaptive integrator may take (Basilisk's integrate
+#: within each task step) and the hold of its time-dependent inputs: a short one would leave its tolerances
+#: nothing to control.
+ADAPTIVE_STEP = 0.5
 
 DEFAULT_CHECKS = {
     "order_tolerance": 0.3,  # allowed expected - observed order (a defect lowers the order)
@@ -89,6 +100,9 @@ class Scenario:
     torque: dict | None = None  # the [torque] table as read (kind, field, parameters)
     steps: tuple = DEFAULT_STEPS
     quick_steps: tuple = QUICK_STEPS
+    tolerances: tuple = DEFAULT_TOLERANCES  # an adaptive method's ladder (relative tolerances)
+    quick_tolerances: tuple = QUICK_TOLERANCES
+    adaptive_step: float = ADAPTIVE_STEP  # an adaptive method's output step [s]
     methods: list | None = None  # None: every applicable method
     reference: str = "exact"
     reference_method: str = "lie-rkmk4"
@@ -99,6 +113,19 @@ class Scenario:
     inertia: tuple | None = None
     #: the [determination] table (:class:`xcheck.sensing.DeterminationSpec`); None: the scenario has none
     determination: object = None
+
+
+def _tolerances(st, key, default) -> tuple:
+    """An adaptive ladder of relative tolerances: each in [1e-14, 0.1], none twice; loose to tight."""
+    values = tuple(float(v) for v in st.get(key, "numbers", list(default)))
+    if not values:
+        st.fail(key, "expected at least one relative tolerance (leave the key out for the default ladder)")
+    for v in values:
+        if not 1e-14 <= v <= 0.1:
+            st.fail(key, f"expected relative tolerances between 1e-14 and 0.1, got {v:g}")
+    if len(set(values)) != len(values):
+        st.fail(key, "a tolerance is given twice")
+    return tuple(sorted(values, reverse=True))
 
 
 class _Reader:
@@ -273,6 +300,13 @@ def load_scenario(path) -> Scenario:
             check_steps(values, duration)
         except ValueError as exc:
             st.fail(key, str(exc) if key in st.table else f"the default steps do not fit: {exc}; give [study] {key}")
+    tolerances = _tolerances(st, "tolerances", DEFAULT_TOLERANCES)
+    quick_tolerances = _tolerances(st, "quick_tolerances", QUICK_TOLERANCES)
+    adaptive_step = st.positive("adaptive_step", min(ADAPTIVE_STEP, duration))
+    try:
+        check_steps([adaptive_step], duration)
+    except ValueError as exc:
+        st.fail("adaptive_step", str(exc))
     methods = st.get("methods", "strings", None)
     if methods is not None and not methods:
         st.fail("methods", "expected a non-empty list of methods (leave the key out for every method)")
@@ -318,7 +352,8 @@ def load_scenario(path) -> Scenario:
 
     scenario = Scenario(name=name, path=path, model=model, duration=duration, q0=q0, omega0=omega0,
                         sequence=sequence, description=description, torque=torque, steps=steps,
-                        quick_steps=quick_steps, methods=methods, reference=reference,
+                        quick_steps=quick_steps, tolerances=tolerances, quick_tolerances=quick_tolerances,
+                        adaptive_step=adaptive_step, methods=methods, reference=reference,
                         reference_method=reference_method, reference_dt=reference_dt, checks=checks,
                         determination=determination)
     # the model must load, and the torque must be buildable for this duration

@@ -13,14 +13,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import rotations as rot
-from .metrics import (ORDER_FLOOR, TOLERANCES, errors_against, invariant_drift, largest_step_within,
+from .metrics import (ORDER_FLOOR, TOLERANCES, StepWithin, errors_against, invariant_drift, largest_step_within,
                       observed_order, tolerance_key)
 from .pool import worker_pool
 from .reference import ReferenceFailure, dop853_solution, exact_torque_free
 from .results import Check, MethodResult, Run
 from .runners import RUNNERS, RunContext
 from .scenario import Scenario, build_torque, check_steps
-from .trajectory import step_plan
+from .trajectory import step_label, step_plan
 from .versions import versions
 
 __all__ = ["run_study", "run_studies", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows", "planned_checks"]
@@ -80,7 +80,7 @@ def comparison_partner(scenario: Scenario, method: str, methods) -> str | None:
     highest-order method, so that the difference measures the engine's own error. None for our methods, or
     when the study has none of ours to compare with."""
     runner = RUNNERS[method]
-    if runner.engine == "xcheck":
+    if runner.engine == "xcheck" or runner.adaptive:  # an adaptive method's runs share one output step
         return None
     ours = [m for m in methods if RUNNERS[m].engine == "xcheck" and RUNNERS[m].expected_order is not None
             and m not in scenario.checks.get("expected_to_fail", ())]
@@ -97,9 +97,10 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
               progress=None, pool=None) -> StudyResult:
     """Run the convergence study of ``scenario``.
 
-    ``methods``/``steps`` override the scenario's; ``quick`` uses its ``quick_steps``. ``workers``
-    processes (default: the CPU count; 1 runs in this process). ``progress(done, total, label)`` is called
-    as runs finish. ``pool`` reuses an existing executor (the report runs all scenarios in one).
+    ``methods``/``steps`` override the scenario's; ``quick`` uses its ``quick_steps`` (and an adaptive method
+    its ``quick_tolerances``). ``workers`` processes (default: the CPU count; 1 runs in this process).
+    ``progress(done, total, label)`` is called as runs finish. ``pool`` reuses an existing executor (the report
+    runs all scenarios in one).
     """
     methods = list(methods) if methods else default_methods(scenario)
     steps_given = steps is not None
@@ -111,7 +112,8 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
         check_steps(steps, scenario.duration)
     except ValueError as exc:
         raise ValueError(f"steps: {exc}") from None
-    tasks = [(scenario, m, tuple(steps), comparison_partner(scenario, m, methods)) for m in methods]
+    tolerances = scenario.quick_tolerances if quick else scenario.tolerances
+    tasks = [(scenario, m, tuple(steps), comparison_partner(scenario, m, methods), tolerances) for m in methods]
     results = _map(_run_method, tasks, workers=workers, progress=progress, pool=pool,
                    labels=[f"{scenario.name}: {m}" for m in methods])
     return assemble(scenario, steps, results, quick=quick and not steps_given)
@@ -127,8 +129,8 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
         methods = default_methods(sc)
         steps = sorted((float(s) for s in (sc.quick_steps if quick else sc.steps)), reverse=True)
         plans.append((sc, methods, steps))
-    tasks = [(sc, m, tuple(steps), comparison_partner(sc, m, methods)) for sc, methods, steps in plans
-             for m in methods]
+    tasks = [(sc, m, tuple(steps), comparison_partner(sc, m, methods), sc.quick_tolerances if quick else sc.tolerances)
+             for sc, methods, steps in plans for m in methods]
     labels = [f"{sc.name}: {m}" for sc, methods, _ in plans for m in methods]
     owner = [k for k, (_, methods, _) in enumerate(plans) for _ in methods]
     first = np.cumsum([0] + [len(methods) for _, methods, _ in plans])
@@ -264,36 +266,49 @@ def scenario_reference(scenario: Scenario) -> _Reference:
     return _cached("reference", scenario, lambda: _Reference(scenario, run_context(scenario)))
 
 
-def _run_method(scenario: Scenario, method: str, steps: tuple, partner: str | None = None) -> dict:
+def _run_method(scenario: Scenario, method: str, steps: tuple, partner: str | None = None,
+                tolerances: tuple | None = None) -> dict:
     """All steps of one method (in a worker): per-run metrics, the sampled finest good run, and with a
     ``partner`` (:func:`comparison_partner`) the largest attitude difference between the two at every step."""
     import warnings
 
     warnings.filterwarnings("ignore", category=UserWarning, module="xcheck.models")
     try:
-        return measure_method(scenario, method, steps, partner)
+        return measure_method(scenario, method, steps, partner, tolerances=tolerances)
     except ReferenceFailure as exc:  # building or evaluating it: nothing can be measured, the study fails with
-        return {"method": method, "runs": [Run.failed(dt, "failed", f"no reference: {exc}", 0.0) for dt in steps],
-                "series": None, "reference_error": str(exc), "comparisons": []}  # the reason
+        return {"method": method, "runs": [Run.failed(dt, "failed", f"no reference: {exc}", 0.0, rtol)  # the reason
+                                           for dt, rtol in settings(scenario, RUNNERS[method], steps, tolerances)],
+                "series": None, "reference_error": str(exc), "comparisons": []}
 
 
-def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str | None, sample: bool = True) -> dict:
-    """One method at every step of a scenario, run one at a time (what :func:`assemble` takes): its runs, with a
-    ``partner`` the direct comparisons, and with ``sample`` the finest good run sampled for the figures (a
-    sweep, which draws none, skips it)."""
+def settings(scenario: Scenario, runner, steps, tolerances=None) -> list[tuple[float, float | None]]:
+    """``(dt, rtol)`` of every run of a method: each step (coarse to fine) with no tolerance, or for an adaptive
+    method each of its tolerances (loose to tight; default: the scenario's full ladder) at the scenario's
+    ``adaptive_step``."""
+    if runner.adaptive:
+        return [(scenario.adaptive_step, float(tol)) for tol in (tolerances or scenario.tolerances)]
+    return [(float(dt), None) for dt in steps]
+
+
+def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str | None, sample: bool = True,
+                   tolerances: tuple | None = None) -> dict:
+    """One method at every step of a scenario (an adaptive method: at every tolerance of ``tolerances``), run
+    one at a time (what :func:`assemble` takes): its runs, with a ``partner`` the direct comparisons, and with
+    ``sample`` the finest good run sampled for the figures (a sweep, which draws none, skips it)."""
     ctx = run_context(scenario)
     ref = scenario_reference(scenario)
     runner = RUNNERS[method]
-    _warm(runner, ctx, steps)
+    plan = settings(scenario, runner, steps, tolerances)
+    _warm(runner, ctx, plan)
     runs, finest, comparisons = [], None, []
-    for dt in steps:
+    for dt, rtol in plan:
         t0 = time.perf_counter()
         try:
-            traj = runner.run(ctx, dt)
+            traj, wall, repeats = timed_run(runner, ctx, dt, rtol)
         except ValueError as exc:  # e.g. a step the run cannot take
-            runs.append(Run.failed(dt, "failed", f"{method}: {exc}", time.perf_counter() - t0))
+            runs.append(Run.failed(dt, "failed", f"{method}: {exc}", time.perf_counter() - t0, rtol))
             continue
-        run = measure_run(method, traj, ref, ctx, dt, time.perf_counter() - t0)
+        run = measure_run(method, traj, ref, ctx, dt, wall, repeats=repeats, rtol=rtol)
         runs.append(run)
         if not run.ok:
             continue
@@ -306,11 +321,39 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
     return {"method": method, "runs": runs, "series": series, "comparisons": comparisons}
 
 
-def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float) -> Run:
+#: A run shorter than this [s] is repeated (up to :data:`TIMING_REPEATS` runs in all) until this much time is
+#: spent, and its wall time is the best of those runs (``timeit``'s autorange, bounded): most runs of a quick
+#: study take 0.1-5 ms, where one measurement is mostly timer noise and cache effects.
+TIMING_BUDGET = 0.02
+TIMING_REPEATS = 5
+
+
+def timed_run(runner, ctx, dt: float, rtol: float | None = None):
+    """``(trajectory, best wall time [s], runs timed)`` of ``runner`` at ``dt`` (and ``rtol``, an adaptive
+    method's): repeated while short (see :data:`TIMING_BUDGET`); the trajectory is the first run's (every run
+    computes the same numbers)."""
+    def once():
+        return runner.run(ctx, dt) if rtol is None else runner.run(ctx, dt, rtol)
+
+    t0 = time.perf_counter()
+    traj = once()
+    best = spent = time.perf_counter() - t0
+    repeats = 1
+    while traj.ok and repeats < TIMING_REPEATS and spent < TIMING_BUDGET:
+        t0 = time.perf_counter()
+        once()
+        wall = time.perf_counter() - t0
+        best, spent, repeats = min(best, wall), spent + wall, repeats + 1
+    return traj, best, repeats
+
+
+def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float, *, repeats: int | None = None,
+                rtol: float | None = None) -> Run:
     """One run's metrics against the reference ``ref`` (a failed :class:`Run` when the trajectory stopped or
-    its errors are not finite); ``wall`` [s] is its wall time."""
+    its errors are not finite); ``wall`` [s] is its wall time (the best of ``repeats`` runs), ``rtol`` an
+    adaptive method's tolerance."""
     if not traj.ok:
-        return Run.failed(dt, traj.status, traj.message, wall)
+        return Run.failed(dt, traj.status, traj.message, wall, rtol)
     n, _ = step_plan(dt, ctx.duration)
     q_ref, w_ref, mask = ref.at(traj.t)  # at the trajectory's own times (an engine's clock may round the step)
     err = errors_against(_subset(traj, mask), q_ref[mask], w_ref[mask])
@@ -318,25 +361,27 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float)
     torque_free = ctx.torque is None
     run = Run(dt=dt, **err, energy_drift=drift["energy_drift"] if torque_free else None,
               momentum_drift=drift["momentum_drift"] if torque_free else None, norm_drift=drift["norm_drift"],
-              wall_time=wall, steps_per_second=n / wall if wall > 0 else None, message=traj.extras.get("clock") or "")
+              wall_time=wall, steps_per_second=n / wall if wall > 0 else None, message=traj.extras.get("clock") or "",
+              repeats=repeats, evaluations=traj.extras.get("evaluations"), rtol=rtol)
     if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
-        return Run.failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall)
+        return Run.failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall, rtol)
     return run
 
 
 _WARM: set = set()
 
 
-def _warm(runner, ctx, steps) -> None:
+def _warm(runner, ctx, plan) -> None:
     """Load (or compile) a method's kernels before its runs are timed: the first call in a process would
     otherwise charge a coarse step's wall time with ~10-200 ms of loading (the work-precision figure and the
     step-size table read those times)."""
-    if runner.name in _WARM or not steps:
+    if runner.name in _WARM or not plan:
         return
     _WARM.add(runner.name)
-    dt = min(steps)
+    dt, rtol = min(plan)
     try:
-        runner.run(dataclasses.replace(ctx, duration=min(ctx.duration, 2 * dt)), dt)
+        short = dataclasses.replace(ctx, duration=min(ctx.duration, 2 * dt))
+        runner.run(short, dt) if rtol is None else runner.run(short, dt, rtol)
     except ValueError:
         pass  # the timed runs will say why
 
@@ -407,14 +452,23 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
     for res in results:
         name = res["method"]
         runner = RUNNERS[name]
-        fit = observed_order([r.dt for r in res["runs"]], [r.attitude_error for r in res["runs"]], floor=floor)
+        runs = res["runs"]
+        x = [r.setting for r in runs]
+        fit = observed_order(x, [r.attitude_error for r in runs], floor=floor)
         within = {tolerance_key(tol): largest_step_within(
-            [r.dt for r in res["runs"]], [r.max_attitude_error if r.ok else None for r in res["runs"]],
-            [r.wall_time for r in res["runs"]], tol) for tol in TOLERANCES}
+            x, [r.max_attitude_error if r.ok else None for r in runs], [r.wall_time for r in runs], tol)
+            for tol in TOLERANCES}
+        order, note, local = fit.order, fit.note, fit.local_orders
+        if runner.adaptive:  # its ladder is of tolerances: the slope is its tolerance proportionality, not an order
+            order, local = None, []
+            note = (f"adaptive, at its own tolerances (output every {step_label(runs[0].dt)} s): the error goes as "
+                    f"rtol^{fit.order:.2f} ({fit.note.replace('dt = ', 'rtol = ').replace(' s', '')})"
+                    if fit.order is not None else f"adaptive, at its own tolerances: {fit.note}") if runs else ""
+            within = {k: StepWithin(None, w.wall_time, w.how, rtol=w.dt) for k, w in within.items()}
         methods[name] = MethodResult(name=name, engine=runner.engine,
                                      expected_order=runner.order_for(scenario.torque)[0],
-                                     runs=res["runs"], observed_order=fit.order, order_note=fit.note,
-                                     local_orders=fit.local_orders, within=within)
+                                     runs=runs, observed_order=order, order_note=note,
+                                     local_orders=local, within=within)
         if res["series"] is not None:
             series[name] = res["series"]
     reference_error = next((res["reference_error"] for res in results if res.get("reference_error")), None)
@@ -449,7 +503,7 @@ def _method_checks(m: MethodResult, cfg, torque_free, quick=False) -> list[Check
     a method may legitimately be unstable, and the report shows those runs with their messages."""
     out = []
     expected = m.expected_order
-    runs = sorted(m.runs, key=lambda r: r.dt)
+    runs = sorted(m.runs, key=lambda r: r.setting)
     if runs and not runs[0].ok:
         out.append(Check("runs", False, m.name, note=runs[0].message or runs[0].status))
     finest = m.finest

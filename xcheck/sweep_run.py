@@ -183,7 +183,7 @@ def _run_single(method: str, c: _Cell, steps: tuple) -> None:
     from .study import measure_method
 
     t0 = time.perf_counter()
-    res = measure_method(c.scenario, method, steps, None, sample=False)
+    res = measure_method(c.scenario, method, steps, None, sample=False, tolerances=c.scenario.quick_tolerances)
     c.timings["compute"] += time.perf_counter() - t0
     c.results.append(res)
 
@@ -194,12 +194,13 @@ _WARM_BATCH: set = set()
 def _run_batched(method: str, cells: list[_Cell], steps: tuple) -> None:
     """One integrate_batch call per step for all ``cells`` (same model, torque, duration); each run's wall
     time is the call's divided by the number of cells."""
-    from .integrators import integrate_batch
+    from .integrators import METHODS, integrate_batch
     from .results import Run
     from .study import measure_run
     from .trajectory import Trajectory
 
     ctx0 = cells[0].ctx
+    stages = METHODS[method].stages
     inertia = np.stack([c.ctx.inertia for c in cells])
     q0 = np.stack([c.ctx.q0 for c in cells])
     omega0 = np.stack([c.ctx.omega0 for c in cells])
@@ -221,7 +222,8 @@ def _run_batched(method: str, cells: list[_Cell], steps: tuple) -> None:
         wall = (time.perf_counter() - t0) / len(cells)
         for i, c in enumerate(cells):
             k = int(out.steps_done[i]) + 1
-            traj = Trajectory(t=out.t[:k], q=out.q[i, :k], omega=out.omega[i, :k], method=method, dt=dt)
+            traj = Trajectory(t=out.t[:k], q=out.q[i, :k], omega=out.omega[i, :k], method=method, dt=dt,
+                              extras={"evaluations": stages * int(out.steps_done[i])})
             if out.status[i] != "ok":
                 traj.status = str(out.status[i])
                 traj.message = (f"{method}: the run stopped ({out.status[i]}) at t = {out.t[k - 1]:.6g} s; the "
@@ -237,12 +239,13 @@ def _record(c: _Cell, methods: list[str], steps: tuple) -> dict:
     """A cell's record: its parameters, every method's result (schema ``xcheck.convergence/1``'s method
     entries), the checks, whether it passed, and where its time went."""
     from .results import Run
-    from .study import assemble
+    from .study import assemble, settings
 
     if c.failure is not None:
-        c.results = [{"method": m, "runs": [Run.failed(dt, "failed", f"no reference: {c.failure}", 0.0)
-                                            for dt in steps], "series": None, "reference_error": c.failure}
-                     for m in methods]
+        c.results = [{"method": m, "runs": [Run.failed(dt, "failed", f"no reference: {c.failure}", 0.0, rtol)
+                                            for dt, rtol in settings(c.scenario, RUNNERS[m], steps,
+                                                                     c.scenario.quick_tolerances)],
+                      "series": None, "reference_error": c.failure} for m in methods]
     st = assemble(c.scenario, list(steps), c.results, quick=True)
     return {"id": c.id, "params": c.params, "passed": st.passed, "order_floor": st.order_floor,
             "methods": {n: m.to_json() for n, m in st.methods.items()},

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "time_grid", "check_step", "check_initial_state",
+__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "step_label", "time_grid", "check_step", "check_initial_state",
            "available_memory"]
 
 #: Relative tolerance for treating ``duration / dt`` as an integer number of steps.
@@ -174,3 +175,9 @@ def check_step(dt, duration, *, runs_at_once: int | None = None) -> int:
                          f"{need / 2**30:.3g} GiB, more than half of the {avail / 2**30:.3g} GiB available here: use a "
                          "larger step or a shorter duration")
     return step_plan(dt, duration)[0]
+
+
+def step_label(dt: float) -> str:
+    """A step as people read it: ``1/1024`` for a power of two below one second, else ``0.3``."""
+    k = math.log2(1 / dt)
+    return f"1/{int(round(1 / dt))}" if dt < 1 and abs(k - round(k)) < 1e-9 else f"{dt:g}"

@@ -10,10 +10,11 @@ Markdown. Inline text is a string or a list of spans ``(text, style)`` with styl
 from __future__ import annotations
 
 import base64
-import math
 import html
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from ..trajectory import step_label  # noqa: F401  (the report's tables and captions use it from here)
 
 __all__ = ["Heading", "Para", "Verdict", "Cell", "Table", "Figure", "to_markdown", "to_html"]
 
@@ -162,7 +163,3 @@ def to_html(blocks, plot_dir: Path, *, title: str) -> str:
     return "\n".join(parts) + "\n"
 
 
-def step_label(dt: float) -> str:
-    """A step as people read it: ``1/1024`` for a power of two below one second, else ``0.3``."""
-    k = math.log2(1 / dt)
-    return f"1/{int(round(1 / dt))}" if dt < 1 and abs(k - round(k)) < 1e-9 else f"{dt:g}"

@@ -45,8 +45,9 @@ def render_figures(data: dict, series: dict, *, quick: bool = False) -> list[tup
                          "Left: attitude error at the final time against the step (log-log), with slope guides "
                          "for orders 1 and 4; below the shaded line errors are at the study's floor (round-off or "
                          "the reference's own accuracy); like seed 004 Fig. 12. Right: the same errors against the "
-                         "wall time of each run, work against precision (lower left is better); dotted lines at "
-                         "the tolerances of the step-size table."))
+                         "wall time of a run (the best of up to 5 runs of a short one), work against precision "
+                         "(lower left is better), the adaptive methods (open markers) at each of their tolerances; "
+                         "dotted lines at the tolerances of the step-size table."))
         if data.get("comparisons"):
             figs.append(_png(_comparisons(data, colors), f"{name}-direct.png",
                              "Direct cross-check, no reference: the largest attitude difference over the run "
@@ -187,6 +188,8 @@ def _convergence_and_cost(data, colors):
     _work_precision(cost, data, colors)
     all_dt, all_e = [], []
     for i, (name, entry) in enumerate(data["methods"].items()):
+        if _adaptive(entry):  # its runs are a ladder of tolerances at one output step: work-precision only
+            continue
         dt = np.array([r["dt"] for r in entry["runs"] if r["attitude_error"] is not None])
         e = np.array([r["attitude_error"] for r in entry["runs"] if r["attitude_error"] is not None])
         if len(dt) == 0:
@@ -213,7 +216,9 @@ def _convergence_and_cost(data, colors):
     ax.set_xlabel("step Δt [s]")
     ax.set_ylabel("attitude error at t = T [rad]")
     ax.set_title(f"{data['scenario']}: convergence ({data['reference']} reference)", loc="left")
-    cost.legend(*ax.get_legend_handles_labels(), loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
+    handles, labels = ax.get_legend_handles_labels()
+    more = cost.get_legend_handles_labels()  # the adaptive methods, drawn on the right only
+    cost.legend(handles + more[0], labels + more[1], loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
     return fig
 
 
@@ -221,14 +226,22 @@ def _line_style(name):
     return RUNNERS[name].line_style if name in RUNNERS else "-"
 
 
+def _adaptive(entry) -> bool:
+    return any(r.get("rtol") is not None for r in entry["runs"])
+
+
 def _work_precision(ax, data, colors):
+    """Error against the wall time of a run (the best of its timed repeats), every method joined step to step,
+    an adaptive method tolerance to tolerance (open markers)."""
     for i, (name, entry) in enumerate(data["methods"].items()):
         runs = [r for r in entry["runs"] if r["attitude_error"] is not None and r.get("wall_time")]
         if not runs:
             continue
-        runs.sort(key=lambda r: r["dt"])  # joined step to step, as the convergence lines
+        adaptive = _adaptive(entry)
+        runs.sort(key=lambda r: r["rtol"] if adaptive else r["dt"])
         ax.loglog([r["wall_time"] for r in runs], [max(r["attitude_error"], 1e-17) for r in runs], _line_style(name),
-                  marker=_MARKERS[i % len(_MARKERS)], ms=4, lw=1.2, color=colors[name])
+                  marker=_MARKERS[i % len(_MARKERS)], ms=4, lw=1.2, color=colors[name],
+                  mfc="white" if adaptive else colors[name], label=f"{name} (adaptive)" if adaptive else None)
     for tol in (1e-3, 1e-6, 1e-9):
         ax.axhline(tol, color="0.5", lw=0.8, ls=":")
     ax.set_xlabel("wall time of one run [s]")

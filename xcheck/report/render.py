@@ -275,36 +275,61 @@ def _ms(seconds) -> str:
 
 def _step_text(w) -> str:
     """A :class:`~xcheck.metrics.StepWithin` in words: ``≈ 0.0271 s`` (interpolated), ``≥ 1/2`` (the coarsest
-    tested step is within), ``—`` (not reached)."""
-    if w.dt is None:
+    tested step is within), ``—`` (not reached); an adaptive method's tolerance: ``rtol ≈ 3.2e-07``, ``rtol ≥
+    1e-03``."""
+    if not w.reached:
         return "—"
+    if w.rtol is not None:
+        return f"rtol ≈ {w.rtol:.2g}" if w.how == "interpolated" else f"rtol ≥ {w.rtol:.0e}"
     return f"≈ {w.dt:.3g} s" if w.how == "interpolated" else f"≥ {step_label(w.dt)} s"
 
 
-def scenario_summary(st) -> str:
-    """What a scenario's numbers say, in a few sentences: the cheapest way to 1e-6 rad (ours and the engines'),
-    how the engines' integrators compare with ours trajectory against trajectory, and the methods whose observed
-    order is not their theory."""
-    key = "1e-06"
-    out = []
+def _at(w) -> str:
+    """``at Δt ≈ 0.0271 s`` or, for an adaptive method, ``at rtol ≈ 3.2e-07``."""
+    return f"at {_step_text(w)}" if w.rtol is not None else f"at Δt {_step_text(w)}"
+
+
+def recommendation(st, key: str = "1e-06") -> list[str]:
+    """The first screen's advice: the cheapest method within ``key`` rad over the run (by the wall time of one
+    run at the largest step, or loosest tolerance, that keeps it there), then the cheapest of the other engine.
+    Never a demonstration (a method kept to show a seed's misprint) or a failure the scenario expects; where a
+    demonstration would have been cheaper, the sentence says why it is not advised."""
+    from ..runners import RUNNERS
+
+    def demo(m):
+        return RUNNERS[m.name].demonstration if m.name in RUNNERS else None
+
     reach = [(m.within[key].wall_time, m) for m in st.methods.values()
-             if key in m.within and m.within[key].dt is not None and m.within[key].wall_time is not None
+             if key in m.within and m.within[key].reached and m.within[key].wall_time is not None
              and m.verdict != "expected"]
-    if reach:
-        wall, best = min(reach, key=lambda x: x[0])
-        out.append(f"Cheapest to 1e-6 rad over the run: {best.name} at Δt {_step_text(best.within[key])} "
-                   f"({_ms(wall)} a run).")
-        engines = [(w, m) for w, m in reach if m.engine != best.engine]
-        if engines:
-            w2, other = min(engines, key=lambda x: x[0])
-            out.append(f"Cheapest {'of ours' if other.engine == 'xcheck' else 'in ' + other.engine}: {other.name} at Δt "
-                       f"{_step_text(other.within[key])} ({_ms(w2)}, {w2 / wall:.2g}× the time).")
-        missing = [m.name for m in st.methods.values() if m.engine != "xcheck" and m.name not in
-                   {n.name for _, n in reach}]
-        if missing:
-            out.append(f"Not within 1e-6 rad at any tested step: {', '.join(missing)}.")
-    else:
-        out.append("No method stays within 1e-6 rad at the tested steps.")
+    advised = [(w, m) for w, m in reach if not demo(m)]
+    tol = key.replace("e-0", "e-")
+    out = []
+    if not advised:
+        return [f"No method stays within {tol} rad at the tested steps."]
+    wall, best = min(advised, key=lambda x: x[0])
+    out.append(f"Cheapest to {tol} rad over the run: {best.name} {_at(best.within[key])} ({_ms(wall)} a run).")
+    cheaper = [(w, m) for w, m in reach if demo(m) and w < wall]
+    if cheaper:
+        w0, m0 = min(cheaper, key=lambda x: x[0])
+        out.append(f"({m0.name} would take {_ms(w0)} but is not advised: it is {demo(m0)}.)")
+    engines = [(w, m) for w, m in advised if m.engine != best.engine]
+    if engines:
+        w2, other = min(engines, key=lambda x: x[0])
+        out.append(f"Cheapest {'of ours' if other.engine == 'xcheck' else 'in ' + other.engine}: {other.name} "
+                   f"{_at(other.within[key])} ({_ms(w2)}, {w2 / wall:.2g}× the time).")
+    missing = [m.name for m in st.methods.values() if m.engine != "xcheck" and m.name not in
+               {n.name for _, n in reach}]
+    if missing:
+        out.append(f"Not within {tol} rad at any tested step or tolerance: {', '.join(missing)}.")
+    return out
+
+
+def scenario_summary(st) -> str:
+    """What a scenario's numbers say, in a few sentences: the cheapest way to 1e-6 rad (ours and the engines';
+    :func:`recommendation`), how the engines' integrators compare with ours trajectory against trajectory, and
+    the methods whose observed order is not their theory."""
+    out = recommendation(st)
     pairs = {}
     for c in st.comparisons:  # the finest step of each pair
         if (c["a"], c["b"]) not in pairs or c["dt"] < pairs[(c["a"], c["b"])]["dt"]:
@@ -354,36 +379,52 @@ def _scenario_blocks(st, figs) -> list:
                      Cell(_fmt(c.limit, ".3g"), num=True), c.note])
     blocks.append(Table(["check", "result", "value", "limit", "note"], rows))
     rows = []
-    for name, m in st.methods.items():
+    fixed = {n: m for n, m in st.methods.items() if not m.adaptive}
+    adaptive = {n: m for n, m in st.methods.items() if m.adaptive}
+    for name, m in fixed.items():
         by_dt = {r.dt: r for r in m.runs}
-        cells = []
-        for d in st.steps:
-            r = by_dt.get(d)
-            if r is None:
-                cells.append(Cell())
-            elif not r.ok:
-                cells.append(Cell(r.status, "fail", title=r.message))
-            else:
-                cells.append(Cell(f"{r.attitude_error:.1e}", num=True))
         rates = [r.steps_per_second for r in m.runs if r.steps_per_second]
         rows.append([Cell(name, m.verdict), "adaptive" if m.expected_order is None else str(m.expected_order),
-                     Cell(_fmt(m.observed_order, ".2f"), num=True), *cells,
+                     Cell(_fmt(m.observed_order, ".2f"), num=True), *(_run_cell(by_dt.get(d)) for d in st.steps),
                      Cell(f"{max(rates):.3g}" if rates else "", num=True)])
     blocks.append(Table(["method", "expected", "observed", *(step_label(d) for d in st.steps), "steps/s"], rows))
+    if adaptive:
+        tols = sorted({r.rtol for m in adaptive.values() for r in m.runs}, reverse=True)
+        out_step = step_label(next(iter(adaptive.values())).runs[0].dt)
+        blocks.append(Para(f"Adaptive methods at their own relative tolerances (the absolute in each method's own "
+                           f"proportion), compared with the reference every {out_step} s: the attitude error at the "
+                           "end; the work is the right-hand-side evaluations of the tightest run (— where the engine "
+                           "does not report them).", small=True))
+        rows = []
+        for name, m in adaptive.items():
+            by_tol = {r.rtol: r for r in m.runs}
+            tight = m.finest
+            rows.append([Cell(name, m.verdict), *(_run_cell(by_tol.get(t)) for t in tols),
+                         Cell(f"{tight.evaluations:,}" if tight and tight.evaluations else "—", num=True)])
+        blocks.append(Table(["method", *(f"rtol {t:.0e}" for t in tols), "evaluations"], rows))
     keys = [k for k in ("1e-03", "1e-06", "1e-09")]
     blocks.append(Para("What a tolerance costs: the largest step at which each method stays within it over the "
                        "whole run (≈ interpolated on the log-log line between the two tested steps that bracket it; "
                        "≥ the coarsest tested step already is; — not even the finest is), and the wall time of one "
-                       "run at that step.", small=True))
+                       "run at that step; for an adaptive method, the loosest of its tolerances that does.",
+                       small=True))
     rows = []
     for name, m in st.methods.items():
         rows.append([Cell(name, m.verdict)] + [Cell(f"{_step_text(m.within[k])} · {_ms(m.within[k].wall_time)}"
-                                                     if k in m.within and m.within[k].dt is not None else "—", num=True)
+                                                     if k in m.within and m.within[k].reached else "—", num=True)
                                                 for k in keys])
     blocks.append(Table(["method", *(f"within {k} rad" for k in keys)], rows))
     blocks += engines_compared(st)
     blocks += [Figure(file, caption) for file, caption in figs]
     return blocks
+
+
+def _run_cell(r) -> Cell:
+    if r is None:
+        return Cell()
+    if not r.ok:
+        return Cell(r.status, "fail", title=r.message)
+    return Cell(f"{r.attitude_error:.1e}", num=True)
 
 
 def engines_compared(st) -> list:
@@ -402,7 +443,7 @@ def engines_compared(st) -> list:
 
     def error(name, d):
         m = st.methods.get(name)
-        r = next((r for r in m.runs if r.dt == d and r.ok and r.attitude_error), None) if m else None
+        r = next((r for r in m.runs if r.dt == d and r.rtol is None and r.ok and r.attitude_error), None) if m else None
         return r.attitude_error if r else None
 
     rk4 = [f"{e}-rk4" for e in engines if f"{e}-rk4" in st.methods]
