@@ -14,3 +14,12 @@ settings.register_profile(
     suppress_health_check=[HealthCheck.too_slow],
 )
 settings.load_profile("xcheck")
+
+# xcheck's compiled code is cached per user (xcheck._jit): pytester gives the suites it runs a HOME of their own,
+# where an empty cache would recompile every kernel (10-15 s a test). Every process of the suite shares the cache of
+# the user who runs it, unless $XCHECK_CACHE_DIR already names one (CI names an empty one for a newcomer's run).
+import os  # noqa: E402
+
+from xcheck._jit import user_cache_home  # noqa: E402
+
+os.environ.setdefault("XCHECK_CACHE_DIR", str(user_cache_home()))

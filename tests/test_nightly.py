@@ -35,10 +35,17 @@ def _nightly(*args, env=None, popen=False):
     return subprocess.run(cmd, **kwargs)
 
 
+#: The methods the nightly's runs here study: ours, MuJoCo's RK4 (the agreement check) and a first-order one. What
+#: the nightly does with a run does not depend on how many methods it has, and each run is a process of its own.
+METHODS = '["lie-rkmk4", "formulation-2", "mujoco-rk4", "mujoco-euler"]'
+
+
 def _scenario_copy(folder: Path, extra: str = "") -> Path:
-    """The bundled gyroscope scenario as a file of the user's, with ``extra`` TOML appended."""
+    """The bundled gyroscope scenario as a file of the user's, with ``extra`` TOML appended (and the
+    :data:`METHODS`)."""
     text = (SCENARIO_DIR / f"{SCENARIO}.toml").read_text()
     text = text.replace('model = "../gyroscope.xml"', f'model = "{(SCENARIO_DIR.parent / "gyroscope.xml").as_posix()}"')
+    text = text.replace("[study]", f"[study]\nmethods = {METHODS}")
     path = folder / f"{SCENARIO}.toml"
     path.write_text(text + extra)
     return path
@@ -93,8 +100,9 @@ def test_two_runs_then_an_injected_regression_exits_1_and_names_it(tmp_path):
 def test_a_bad_history_exits_2_before_any_work_and_is_left_untouched(tmp_path, make, words):
     history = tmp_path / "h.sqlite"
     make(history)
+    scenario = _scenario_copy(tmp_path)
     before = _files(tmp_path)
-    proc = _nightly(SCENARIO, "--out", tmp_path / "reports", "--history", history)
+    proc = _nightly(scenario, "--out", tmp_path / "reports", "--history", history)
     assert proc.returncode == 2, proc.stdout + proc.stderr
     assert proc.stderr.startswith(f"xcheck: error: {history}: ") and words in proc.stderr
     assert "Traceback" not in proc.stderr
@@ -109,13 +117,13 @@ def test_bad_arguments_exit_2_naming_them(tmp_path):
              (["--error-factor", "-1"], "--error-factor: expected a positive number, got -1.0"),
              (["--history", tmp_path / "missing" / "h.sqlite"], "does not exist")]
     for extra, words in cases:
-        proc = _nightly(SCENARIO, "--out", tmp_path / "r", *extra)
+        proc = _nightly(_scenario_copy(tmp_path), "--out", tmp_path / "r", *extra)
         assert proc.returncode == 2 and words in proc.stderr, (extra, proc.stderr)
 
 
 def test_two_nightlies_at_once_both_land(tmp_path):
     out = tmp_path / "reports"
-    procs = [_nightly(SCENARIO, "--out", out, popen=True) for _ in range(2)]
+    procs = [_nightly(_scenario_copy(tmp_path), "--out", out, popen=True) for _ in range(2)]
     for p in procs:
         stdout, stderr = p.communicate(timeout=300)
         assert p.returncode == 0, stdout + stderr
@@ -128,12 +136,12 @@ def test_two_nightlies_at_once_both_land(tmp_path):
 
 def test_baseline_run_id_compares_with_that_run(tmp_path):
     out = tmp_path / "reports"
-    assert _nightly(SCENARIO, "--out", out).returncode == 0
-    proc = _nightly(SCENARIO, "--out", out, "--baseline", "1")
+    assert _nightly(_scenario_copy(tmp_path), "--out", out).returncode == 0
+    proc = _nightly(_scenario_copy(tmp_path), "--out", out, "--baseline", "1")
     assert proc.returncode == 0, proc.stderr
     results = json.loads((out / "latest" / "results.json").read_text())
     assert results["history"][0]["baseline"] == "run 1" and results["history"][0]["baseline_runs"] == [1]
-    proc = _nightly(SCENARIO, "--out", out, "--baseline", "7")
+    proc = _nightly(_scenario_copy(tmp_path), "--out", out, "--baseline", "7")
     assert proc.returncode == 2 and "--baseline 7: no such run" in proc.stderr and "runs 1-2" in proc.stderr
 
 
@@ -164,7 +172,7 @@ def test_keep_deletes_only_older_report_folders(tmp_path):
 def test_keep_on_the_command_line(tmp_path):
     out = tmp_path / "reports"
     for _ in range(3):
-        assert _nightly(SCENARIO, "--out", out, "--keep", "2").returncode == 0
+        assert _nightly(_scenario_copy(tmp_path), "--out", out, "--keep", "2").returncode == 0
     reports = sorted(p.name for p in out.iterdir() if re.match(r"\d{8}T", p.name))
     assert len(reports) == 2 and (out / "latest").resolve().name == reports[-1]
     with H.open_history(out / "history.sqlite", read_only=True) as hist:
@@ -173,9 +181,9 @@ def test_keep_on_the_command_line(tmp_path):
 
 def test_a_killed_nightly_records_nothing_and_leaves_the_history_readable(tmp_path):
     out = tmp_path / "reports"
-    assert _nightly(SCENARIO, "--out", out).returncode == 0
+    assert _nightly(_scenario_copy(tmp_path), "--out", out).returncode == 0
     before = (out / "history.sqlite").read_bytes()
-    p = _nightly(SCENARIO, "--out", out, "--workers", "2", popen=True)  # (the last --workers counts)
+    p = _nightly(_scenario_copy(tmp_path), "--out", out, "--workers", "2", popen=True)  # (the last --workers counts)
     from test_abuse import _children, _wait_for
 
     # the studies running: the worker pool starts once the command's imports are done and Ctrl-C is handled
@@ -230,7 +238,7 @@ def test_the_version_matrix_runs_each_release_and_reports_the_uninstallable(tmp_
 
     installed = installed_mujoco()
     out = tmp_path / "reports"
-    proc = _nightly(SCENARIO, "--out", out, "--mujoco", f"{installed},{OLD_MUJOCO},0.0.1")
+    proc = _nightly(_scenario_copy(tmp_path), "--out", out, "--mujoco", f"{installed},{OLD_MUJOCO},0.0.1")
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "MuJoCo 0.0.1: cannot be installed" in proc.stdout
     assert f"MuJoCo {OLD_MUJOCO}: some checks failed" in proc.stdout
@@ -306,7 +314,7 @@ def test_a_postgresql_history(tmp_path, postgres):
     """Two nightlies into a PostgreSQL history: both recorded with the same figures as a SQLite history gets."""
     out = tmp_path / "reports"
     for n in (1, 2):
-        proc = _nightly(SCENARIO, "--out", out, "--history", postgres)
+        proc = _nightly(_scenario_copy(tmp_path), "--out", out, "--history", postgres)
         assert proc.returncode == 0, proc.stdout + proc.stderr
         assert f"nightly: run {n} recorded in postgresql://xcheck@/postgres" in proc.stdout
     doc = json.loads((out / "latest" / "results.json").read_text())
@@ -338,7 +346,7 @@ def test_a_foreign_postgresql_database_is_refused_untouched(postgres):
 def test_bench_rows_are_recorded(tmp_path):
     """``--bench``: every benchmark row is stored as ``bench_steps_per_second``, equal to the report's own row."""
     out = tmp_path / "reports"
-    proc = _nightly(SCENARIO, "--out", out, "--bench")
+    proc = _nightly(_scenario_copy(tmp_path), "--out", out, "--bench")
     assert proc.returncode == 0, proc.stdout + proc.stderr
     rows = json.loads((out / "latest" / "results.json").read_text())["throughput"]
     reported = {(r["scenario"], r["method"] + (f" x{r['batch']}" if r["batch"] > 1 else "")): r["steps_per_second"]

@@ -142,6 +142,21 @@ def _steps_arg(text, scenario):
 
 
 def _cmd_converge(args) -> int:
+    from .engines import available
+    from .pool import worker_pool
+
+    # A study is quicker in this process than shared with workers, which each pay 1-1.5 s of imports and
+    # compiled-code loading before their first run, except for Basilisk's methods: they cost 0.5 s of import
+    # more and are the longest runs. With Basilisk installed (and not left out by --methods) one worker starts
+    # before anything is imported here, imports it, and runs Basilisk's methods while this process runs the
+    # rest. --workers N: that many processes for the whole study; --workers 1: this process alone.
+    basilisk = available("basilisk") and (args.methods is None or "basilisk" in args.methods)
+    size = args.workers - 1 if args.workers and args.workers > 1 else (1 if args.workers is None and basilisk else 0)
+    with worker_pool(size, warm=worker_modules(figures=False)) if size else nullcontext() as pool:
+        return _converge(args, pool)
+
+
+def _converge(args, pool) -> int:
     from .report.io import check_output_dir, check_output_file, write_json_atomic
     from .scenario import resolve_scenario
     from .study import run_study
@@ -155,9 +170,9 @@ def _cmd_converge(args) -> int:
         check_output_dir(args.out, "--out")
     t0 = time.perf_counter()
     progress = Progress()
-    # one quick study is less work than starting worker processes (1.3 s each, importing numba and MuJoCo)
-    workers = args.workers if args.workers is not None else (1 if args.quick else None)
-    st = run_study(scenario, methods=methods, steps=steps, quick=args.quick, workers=workers, progress=progress)
+    # a run's wall time is repeated for a meaningful figure only where one is written (the table shows none)
+    st = run_study(scenario, methods=methods, steps=steps, quick=args.quick, workers=1 if pool is None else None,
+                   progress=progress, timing=bool(args.json or args.out), pool=pool, here=pool is not None)
     _print_study(st)
     if args.json:
         write_json_atomic(args.json, st.data)
@@ -256,6 +271,15 @@ def _plot_run(path, title, traj, err):
 WORKER_MODULES = ("xcheck.study", "xcheck.engines.mujoco", "xcheck.report.plots")
 
 
+def worker_modules(figures: bool = True) -> tuple:
+    """What a worker imports as it starts: the study, MuJoCo's engine, matplotlib's plots (``figures``) and,
+    installed, Basilisk's engine and messages."""
+    from .engines import available
+
+    modules = WORKER_MODULES if figures else tuple(m for m in WORKER_MODULES if m != "xcheck.report.plots")
+    return modules + (("xcheck.engines.basilisk", "Basilisk.simulation.spacecraft") if available("basilisk") else ())
+
+
 def _cmd_report(args) -> int:
     t0 = time.perf_counter()
     studies, folder = _write_report(args)
@@ -291,10 +315,12 @@ def _write_report(args, sections=None, bench=None):
     t0 = time.perf_counter()
     marks = [("start", _STARTED), ("pool started", t0)]
     progress = Progress()
-    # --workers 1: everything in this process; otherwise one pool for the studies and the figures, started
-    # first so that the workers import numpy, numba, MuJoCo and matplotlib while this process imports its
-    # own and reads the scenarios
-    with worker_pool(args.workers, warm=WORKER_MODULES) if args.workers != 1 else nullcontext() as pool:
+    # --workers 1: everything in this process; otherwise a pool of one worker fewer (this process runs studies
+    # too: each process pays 1-3 s of imports and compiled-code loading) for the studies and the figures, started
+    # first so that the workers import numpy, numba, MuJoCo, matplotlib (and Basilisk) while this process
+    # imports its own and reads the scenarios
+    size = max(1, (args.workers or os.cpu_count() or 2) - 1)
+    with worker_pool(size, warm=worker_modules()) if args.workers != 1 else nullcontext() as pool:
         from .report.io import check_output_dir
         from .report.render import draw_figures, write_report
         from .study import run_studies, throughput_rows
@@ -309,7 +335,7 @@ def _write_report(args, sections=None, bench=None):
 
         determinations = _start_determinations(scenarios, pool)
         studies = run_studies(scenarios, quick=args.quick, progress=progress, pool=pool, workers=args.workers,
-                              on_study=draw if pool is not None else None)
+                              on_study=draw if pool is not None else None, here=pool is not None)
         marks.append(("studies", time.perf_counter()))
         if bench is None and args.bench:
             from .bench import run_bench
@@ -609,7 +635,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="PATH", help="write the results (schema xcheck.convergence/1)")
     p.add_argument("--out", metavar="DIR", help="write the figures into DIR")
     p.add_argument("--workers", type=int, default=None,
-                   help="worker processes (default: the CPU count; with --quick, this process alone)")
+                   help="processes for the study, this one included (default: this process, and one worker for "
+                        "Basilisk's methods when it is installed)")
     p.set_defaults(func=_cmd_converge)
 
     p = sub.add_parser("run", help="one trajectory")
@@ -709,15 +736,20 @@ def main(argv: list[str] | None = None) -> int:
             signal.signal(signal.SIGTERM, previous)
 
 
+#: The errors a user can cause, by the module that raises them (imported only by the commands that use them).
+USER_ERRORS = (("xcheck.scenario", "ScenarioError"), ("xcheck.models", "ModelError"), ("xcheck.report.io",
+               "OutputPathError"), ("xcheck.history", "HistoryError"), ("xcheck.determination", "DeterminationError"))
+
+
+def _user_errors() -> tuple:
+    """:class:`UsageError` and the user-error classes of the modules this command loaded (a module it did not load
+    raised nothing): ``xcheck converge`` need not import the determination's numba code to report a bad file."""
+    return (UsageError, *(getattr(sys.modules[m], name) for m, name in USER_ERRORS if m in sys.modules))
+
+
 def _run(args) -> int:
     """``args.func(args)`` with every failure a user can cause turned into a message and an exit code."""
     from concurrent.futures.process import BrokenProcessPool
-
-    from .determination import DeterminationError
-    from .history import HistoryError
-    from .models import ModelError
-    from .report.io import OutputPathError
-    from .scenario import ScenarioError
 
     try:
         try:
@@ -731,7 +763,7 @@ def _run(args) -> int:
         print("xcheck: error: a worker process died (killed from outside, or out of memory); no report was written",
               file=sys.stderr)
         return EXIT_BUG
-    except (ScenarioError, ModelError, UsageError, OutputPathError, HistoryError, DeterminationError) as exc:
+    except _user_errors() as exc:
         print(f"xcheck: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt as exc:

@@ -18,7 +18,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 
-__all__ = ["make_pool", "stop_pool", "worker_pool"]
+__all__ = ["make_pool", "stop_pool", "worker_pool", "ready_workers"]
 
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
@@ -66,6 +66,15 @@ def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 2.0) -> None:
             p.join(1.0)
 
 
+def ready_workers(pool) -> int:
+    """How many of ``pool``'s workers have started (imported their modules); all of them for a pool that was not
+    warmed."""
+    starting = getattr(pool, "starting", None)
+    if starting is None:
+        return getattr(pool, "_max_workers", 1) or 1
+    return sum(f.done() for f in starting)
+
+
 def _import(modules) -> None:
     import importlib
 
@@ -76,12 +85,12 @@ def _import(modules) -> None:
 def _start_workers(pool: ProcessPoolExecutor, modules=()) -> None:
     """Start every worker now (one task each: the pool starts one worker per task), with SIGINT ignored while
     they start: a spawned process inherits an ignored signal, so a Ctrl-C to the process group cannot kill
-    a worker before its initializer has made it ignore SIGINT (it would break the pool)."""
+    a worker before its initializer has made it ignore SIGINT (it would break the pool). ``pool.starting`` holds
+    those tasks: one done is a worker ready."""
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
     try:
-        for _ in range(pool._max_workers):
-            pool.submit(_import, modules)
+        pool.starting = [pool.submit(_import, modules) for _ in range(pool._max_workers)]
     finally:
         if main_thread:
             signal.signal(signal.SIGINT, previous)

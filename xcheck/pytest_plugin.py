@@ -85,7 +85,9 @@ class ScenarioFile(pytest.File):
             from .study import run_study
 
             try:
-                st = run_study(self.scenario, quick=_quick(self.config), workers=1)
+                # a run is timed again only for --xcheck-report's figures (the checks read no wall time)
+                st = run_study(self.scenario, quick=_quick(self.config), workers=1,
+                               timing=self.config.getoption("xcheck_report") is not None)
                 _STUDIES.append(st)
                 self._study = st
             except Exception as exc:  # e.g. a reference over budget: every item says so

@@ -7,7 +7,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from concurrent.futures import as_completed
+from concurrent.futures import FIRST_COMPLETED, as_completed, wait
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -15,7 +15,7 @@ import numpy as np
 from . import rotations as rot
 from .metrics import (ORDER_FLOOR, TOLERANCES, StepWithin, errors_against, invariant_drift, largest_step_within,
                       observed_order, tolerance_key)
-from .pool import worker_pool
+from .pool import ready_workers, worker_pool
 from .reference import ReferenceFailure, dop853_solution, exact_torque_free
 from .results import Check, MethodResult, Run
 from .runners import RUNNERS, RunContext
@@ -94,7 +94,7 @@ def comparison_partner(scenario: Scenario, method: str, methods) -> str | None:
 
 
 def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = False, workers: int | None = None,
-              progress=None, pool=None) -> StudyResult:
+              progress=None, pool=None, timing: bool = True, here: bool = False) -> StudyResult:
     """Run the convergence study of ``scenario``.
 
     ``methods``/``steps`` override the scenario's; ``quick`` uses its ``quick_steps`` (and an adaptive method
@@ -113,17 +113,18 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     except ValueError as exc:
         raise ValueError(f"steps: {exc}") from None
     tolerances = scenario.quick_tolerances if quick else scenario.tolerances
-    tasks = [(scenario, m, tuple(steps), comparison_partner(scenario, m, methods), tolerances) for m in methods]
+    tasks = [(scenario, m, tuple(steps), comparison_partner(scenario, m, methods), tolerances, timing) for m in methods]
     results = _map(_run_method, tasks, workers=workers, progress=progress, pool=pool,
-                   labels=[f"{scenario.name}: {m}" for m in methods])
+                   labels=[f"{scenario.name}: {m}" for m in methods], here=_prefer_here if here else None)
     return assemble(scenario, steps, results, quick=quick and not steps_given)
 
 
 def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, progress=None,
-                pool=None, on_study=None) -> list[StudyResult]:
+                pool=None, on_study=None, here: bool = False) -> list[StudyResult]:
     """Several studies over one pool of worker processes: every (scenario, method) pair is one task,
     submitted together so that both cores stay busy to the end. ``on_study(study)`` is called as soon as a
-    scenario's last task is in (the report submits its figures then, behind the studies still queued)."""
+    scenario's last task is in (the report submits its figures then, behind the studies still queued). ``here``:
+    this process runs tasks too, beside ``pool``."""
     plans = []
     for sc in scenarios:
         methods = default_methods(sc)
@@ -148,32 +149,84 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
             if on_study:
                 on_study(studies[k])
 
-    _map(_run_method, tasks, workers=workers, progress=progress, pool=pool, labels=labels, on_result=done)
+    _map(_run_method, tasks, workers=workers, progress=progress, pool=pool, labels=labels, on_result=done,
+         here=_prefer_here if here else None)
     return studies
 
 
-def _map(fn, tasks, *, workers, progress, pool, labels, on_result=None):
+def _prefer_here(task) -> bool:
+    """The tasks this process takes first when it works beside a pool: not Basilisk's (its import costs 0.5 s a
+    process; the workers load it)."""
+    return RUNNERS[task[1]].engine != "basilisk"
+
+
+def _map(fn, tasks, *, workers, progress, pool, labels, on_result=None, here=None):
+    """``fn(*task)`` for every task, in ``pool`` (or a pool of its own, or this process for ``workers=1``), calling
+    ``record`` as each finishes. ``here``: this process works too, beside the pool (see :func:`_map_here`); a
+    predicate that says which tasks it prefers (None: it only waits)."""
     total = len(tasks)
     out = [None] * total
+    count = [0]
 
-    def record(i, result, done):
+    def record(i, result):
         out[i] = result
+        count[0] += 1
         if on_result:
             on_result(i, result)
         if progress:
-            progress(done, total, labels[i])
+            progress(count[0], total, labels[i])
 
     if pool is None and (workers == 1 or total == 1):
         for i, task in enumerate(tasks):
-            record(i, fn(*task), i + 1)
+            record(i, fn(*task))
         return out
     if pool is None:
         with worker_pool(workers) as own:
-            return _map(fn, tasks, workers=workers, progress=progress, pool=own, labels=labels, on_result=on_result)
+            return _map(fn, tasks, workers=workers, progress=progress, pool=own, labels=labels, on_result=on_result,
+                        here=here)
+    if here is not None:
+        _map_here(fn, tasks, pool, record, here)
+        return out
     futures = {pool.submit(fn, *task): i for i, task in enumerate(tasks)}
-    for done, fut in enumerate(as_completed(futures), start=1):
-        record(futures[fut], fut.result(), done)
+    for fut in as_completed(futures):
+        record(futures[fut], fut.result())
     return out
+
+
+def _map_here(fn, tasks, pool, record, prefer) -> None:
+    """Share ``tasks`` between ``pool`` and this process. The pool takes them from the front of a queue in which
+    the tasks this process would rather not run come first (``prefer(task)`` False: Basilisk's, whose engine the
+    workers import as they start), kept one task ahead of its workers so that what else is submitted to it, a
+    scenario's figures, is not queued behind every study, and given none before one of them has started (a task
+    waiting for a worker's imports is better run here); this process takes them from the back, collecting
+    finished results between its own, and the workers' own too when more are left than the workers take next. Every process pays its imports and compiled-code loading once (1-3 s): a
+    worker fewer, and this process working, is that much less to pay."""
+    pending = sorted(range(len(tasks)), key=lambda i: bool(prefer(tasks[i])))  # stable: the given order within
+    futures: dict = {}
+
+    def collect(block: bool):
+        if block and futures:
+            wait(list(futures), return_when=FIRST_COMPLETED)
+        for fut in [f for f in futures if f.done()]:
+            record(futures.pop(fut), fut.result())
+
+    workers = getattr(pool, "_max_workers", 1) or 1
+    while pending or futures:
+        ready = ready_workers(pool)
+        # the workers' own tasks wait for them however long they take to start; another task goes to a worker
+        # only once one has started (this process would otherwise wait for it)
+        while pending and len(futures) < workers + 1 and (ready or not prefer(tasks[pending[0]])):
+            i = pending.pop(0)
+            futures[pool.submit(fn, *tasks[i])] = i
+        collect(block=False)
+        if not pending:
+            collect(block=True)
+            continue
+        if not prefer(tasks[pending[-1]]) and futures and len(pending) <= workers:
+            collect(block=True)  # the workers' own, and no more than they take next: wait for them
+            continue
+        i = pending.pop()
+        record(i, fn(*tasks[i]))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -267,14 +320,14 @@ def scenario_reference(scenario: Scenario) -> _Reference:
 
 
 def _run_method(scenario: Scenario, method: str, steps: tuple, partner: str | None = None,
-                tolerances: tuple | None = None) -> dict:
+                tolerances: tuple | None = None, timing: bool = True) -> dict:
     """All steps of one method (in a worker): per-run metrics, the sampled finest good run, and with a
     ``partner`` (:func:`comparison_partner`) the largest attitude difference between the two at every step."""
     import warnings
 
     warnings.filterwarnings("ignore", category=UserWarning, module="xcheck.models")
     try:
-        return measure_method(scenario, method, steps, partner, tolerances=tolerances)
+        return measure_method(scenario, method, steps, partner, tolerances=tolerances, timing=timing)
     except ReferenceFailure as exc:  # building or evaluating it: nothing can be measured, the study fails with
         return {"method": method, "runs": [Run.failed(dt, "failed", f"no reference: {exc}", 0.0, rtol)  # the reason
                                            for dt, rtol in settings(scenario, RUNNERS[method], steps, tolerances)],
@@ -291,7 +344,7 @@ def settings(scenario: Scenario, runner, steps, tolerances=None) -> list[tuple[f
 
 
 def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str | None, sample: bool = True,
-                   tolerances: tuple | None = None) -> dict:
+                   tolerances: tuple | None = None, timing: bool = True) -> dict:
     """One method at every step of a scenario (an adaptive method: at every tolerance of ``tolerances``), run
     one at a time (what :func:`assemble` takes): its runs, with a ``partner`` the direct comparisons, and with
     ``sample`` the finest good run sampled for the figures (a sweep, which draws none, skips it)."""
@@ -304,7 +357,7 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
     for dt, rtol in plan:
         t0 = time.perf_counter()
         try:
-            traj, wall, repeats = timed_run(runner, ctx, dt, rtol)
+            traj, wall, repeats = timed_run(runner, ctx, dt, rtol, repeats=TIMING_REPEATS if timing else 1)
         except ValueError as exc:  # e.g. a step the run cannot take
             runs.append(Run.failed(dt, "failed", f"{method}: {exc}", time.perf_counter() - t0, rtol))
             continue
@@ -312,6 +365,8 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
         runs.append(run)
         if not run.ok:
             continue
+        if timing:
+            _retime_outliers(runner, ctx, runs)
         finest = (dt, traj)
         if partner is not None:
             difference = _difference(scenario, ctx, traj, partner, dt)
@@ -324,14 +379,15 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
 #: A run shorter than this [s] is repeated (up to :data:`TIMING_REPEATS` runs in all) until this much time is
 #: spent, and its wall time is the best of those runs (``timeit``'s autorange, bounded): most runs of a quick
 #: study take 0.1-5 ms, where one measurement is mostly timer noise and cache effects.
-TIMING_BUDGET = 0.02
+TIMING_BUDGET = 0.01
 TIMING_REPEATS = 5
 
 
-def timed_run(runner, ctx, dt: float, rtol: float | None = None):
+def timed_run(runner, ctx, dt: float, rtol: float | None = None, *, repeats: int = TIMING_REPEATS):
     """``(trajectory, best wall time [s], runs timed)`` of ``runner`` at ``dt`` (and ``rtol``, an adaptive
-    method's): repeated while short (see :data:`TIMING_BUDGET`); the trajectory is the first run's (every run
-    computes the same numbers)."""
+    method's): repeated while short, up to ``repeats`` runs (see :data:`TIMING_BUDGET`); the trajectory is the
+    first run's (every run computes the same numbers)."""
+    limit = repeats
     def once():
         return runner.run(ctx, dt) if rtol is None else runner.run(ctx, dt, rtol)
 
@@ -339,7 +395,7 @@ def timed_run(runner, ctx, dt: float, rtol: float | None = None):
     traj = once()
     best = spent = time.perf_counter() - t0
     repeats = 1
-    while traj.ok and repeats < TIMING_REPEATS and spent < TIMING_BUDGET:
+    while traj.ok and repeats < limit and spent < TIMING_BUDGET:
         t0 = time.perf_counter()
         once()
         wall = time.perf_counter() - t0
@@ -368,16 +424,50 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float,
     return run
 
 
+#: A run timed again because a run with more work took less time is re-run this many times more, at most.
+RETIME_REPEATS = 3
+
+
+def _retime_outliers(runner, ctx, runs) -> None:
+    """Where the last run did more work than the good run before it (more evaluations, or a finer step or
+    tolerance where the engine counts none) yet took less time, the earlier one met some noise (another process,
+    the machine): it is timed again, up to :data:`RETIME_REPEATS` more runs, and keeps its best. Going back while
+    that leaves its own predecessor slower, the work-precision line then runs forward wherever the work decides
+    the time (where a run's fixed cost does, the two times are the same within noise)."""
+    good = [r for r in runs if r.ok and r.wall_time is not None]
+    for k in range(len(good) - 1, 0, -1):
+        before, after = good[k - 1], good[k]
+        if after.wall_time >= before.wall_time or not _more_work(after, before):
+            return
+        for _ in range(RETIME_REPEATS):
+            t0 = time.perf_counter()
+            runner.run(ctx, before.dt) if before.rtol is None else runner.run(ctx, before.dt, before.rtol)
+            before.wall_time = min(before.wall_time, time.perf_counter() - t0)
+            before.repeats = (before.repeats or 1) + 1
+            if before.wall_time <= after.wall_time:
+                break
+        n, _ = step_plan(before.dt, ctx.duration)
+        before.steps_per_second = n / before.wall_time if before.wall_time > 0 else None
+
+
+def _more_work(a: Run, b: Run) -> bool:
+    if a.evaluations is not None and b.evaluations is not None:
+        return a.evaluations > b.evaluations
+    return a.setting < b.setting
+
+
 _WARM: set = set()
 
 
 def _warm(runner, ctx, plan) -> None:
-    """Load (or compile) a method's kernels before its runs are timed: the first call in a process would
+    """Load (or compile) a method's kernels, and what its runs load on the way for this scenario's torque (an
+    engine's held-input module, its MuJoCo model), before its runs are timed: the first call in a process would
     otherwise charge a coarse step's wall time with ~10-200 ms of loading (the work-precision figure and the
     step-size table read those times)."""
-    if runner.name in _WARM or not plan:
+    key = (runner.name, ctx.model_path, type(ctx.torque).__name__, getattr(getattr(ctx.torque, "field", None), "name", None))
+    if key in _WARM or not plan:
         return
-    _WARM.add(runner.name)
+    _WARM.add(key)
     dt, rtol = min(plan)
     try:
         short = dataclasses.replace(ctx, duration=min(ctx.duration, 2 * dt))

@@ -98,7 +98,8 @@ def _study(scenario_or_path, methods, steps=None, quick=True):
     from .study import run_study
 
     sc = _scenario(scenario_or_path)
-    return run_study(sc, methods=methods, steps=steps, quick=quick and steps is None, workers=1)
+    return run_study(sc, methods=methods, steps=steps, quick=quick and steps is None, workers=1,
+                     timing=False)  # the assertions read no wall time
 
 
 def assert_converges(scenario_or_path, *, method: str, order: float | None = None, tol: float = 0.3, steps=None,
