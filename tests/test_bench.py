@@ -45,3 +45,19 @@ def test_bench_times_every_determination_method():
     rows = _determination_rows(500, 1)
     assert [r["method"] for r in rows] == [f"{m} (determination)" for m in METHODS]
     assert all(r["batch"] == 500 and r["solutions_per_second"] == r["steps_per_second"] > 0 for r in rows)
+
+
+def test_ratios_are_taken_against_mujocos_fastest_rk4_row():
+    """Truth: made-up rows; the slower of MuJoCo's two RK4 rows is never the denominator."""
+    from xcheck.bench import fastest_mujoco_rk4, ratio_lines
+
+    def row(engine, method, sps, batch=1):
+        return {"engine": engine, "method": method, "scenario": "gyroscope-nonsingular", "batch": batch,
+                "steps_per_second": sps}
+
+    rows = [row("mujoco", "mujoco-rk4", 1.3e5), row("mujoco", "mujoco-rk4 (mj_step loop)", 1.8e5),
+            row("mujoco", "mujoco-euler", 5e5), row("xcheck", "lie-rkmk4", 7.2e6), row("xcheck", "lie-rkmk4", 2e7, 10000)]
+    assert fastest_mujoco_rk4(rows)["method"] == "mujoco-rk4 (mj_step loop)"
+    lines = ratio_lines(rows)
+    assert "mujoco-rk4 (mj_step loop) (1.8e+05 steps/s)" in lines[0]
+    assert len(lines) == 2 and lines[1].split() == ["lie-rkmk4", "40.0x"]

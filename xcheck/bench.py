@@ -143,6 +143,27 @@ def _determination_rows(n: int, repeat: int) -> list[dict]:
     return rows
 
 
+def fastest_mujoco_rk4(rows, scenario: str = "gyroscope-nonsingular") -> dict | None:
+    """MuJoCo's fastest single-trajectory RK4 row of ``scenario`` (its ``rollout`` through the runner, or its bare
+    ``mj_step`` loop): a ratio against MuJoCo is honest only against the best it does."""
+    mj = [r for r in rows if r["engine"] == "mujoco" and r["batch"] == 1 and r["scenario"] == scenario
+          and r["method"].startswith("mujoco-rk4") and "cells_per_second" not in r]
+    return max(mj, key=lambda r: r["steps_per_second"]) if mj else None
+
+
+def ratio_lines(rows, scenario: str = "gyroscope-nonsingular") -> list[str]:
+    """Each other single-trajectory RK4-family row of ``scenario`` against :func:`fastest_mujoco_rk4`."""
+    best = fastest_mujoco_rk4(rows, scenario)
+    if best is None:
+        return []
+    out = [f"against MuJoCo's fastest RK4 row on {scenario}, {best['method']} ({best['steps_per_second']:.3g} "
+           "steps/s):"]
+    for r in rows:
+        if r["batch"] == 1 and r["scenario"] == scenario and r["engine"] != "mujoco" and "solutions_per_second" not in r:
+            out.append(f"  {r['method']:28s} {r['steps_per_second'] / best['steps_per_second']:6.1f}x")
+    return out
+
+
 def format_rows(rows) -> str:
     lines = [f"{'engine':8s} {'method':28s} {'scenario':24s} {'batch':>6s} {'steps/s':>10s}"]
     for r in rows:
@@ -150,7 +171,7 @@ def format_rows(rows) -> str:
                  "  (solutions/s)" if "solutions_per_second" in r else "")
         lines.append(f"{r['engine']:8s} {r['method']:28s} {r['scenario']:24s} {r['batch']:6d} "
                      f"{r['steps_per_second']:10.3g}{cells}")
-    return "\n".join(lines)
+    return "\n".join(lines + [""] + ratio_lines(rows))
 
 
 def main(argv=None) -> int:
