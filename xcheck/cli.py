@@ -714,6 +714,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # xcheck never renders: without an OpenGL context MuJoCo's import skips GLFW's, which probes each library in
+    # a Python subprocess of its own (80 ms a process; and a worker stopped while it imported left that probe
+    # printing a BrokenPipeError). Inherited by the workers; a MUJOCO_GL of the user's is kept.
+    os.environ.setdefault("MUJOCO_GL", "disable")
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

@@ -54,6 +54,13 @@ def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 2.0) -> None:
     """Stop ``pool`` now: cancel what has not started, terminate the workers (SIGTERM, then SIGKILL after
     ``grace`` seconds) and wait for them, so that nothing they write can land after this returns."""
     procs = list((getattr(pool, "_processes", None) or {}).values())  # the executor's own record of its workers
+    if not all(f.done() for f in getattr(pool, "starting", ())):
+        # a worker still starting (an input refused at once) is killed before the executor closes the pipes it
+        # is reading and writing: it printed a traceback of its own (BrokenPipeError) on the way out
+        for p in procs:
+            p.kill()
+        for p in procs:
+            p.join(grace)
     pool.shutdown(wait=False, cancel_futures=True)
     for p in procs:
         if p.is_alive():
@@ -64,6 +71,11 @@ def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 2.0) -> None:
         if p.is_alive():
             p.kill()
             p.join(1.0)
+    # let the executor's own thread see its workers gone and close its pipes now, not at interpreter exit (where it
+    # raced atexit's wake-up of it: "OSError: Bad file descriptor")
+    thread = getattr(pool, "_executor_manager_thread", None)
+    if thread is not None:
+        thread.join(grace)
 
 
 def ready_workers(pool) -> int:
