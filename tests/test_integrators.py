@@ -253,6 +253,38 @@ def test_batch_equals_single_trajectories(method):
     assert final.q.shape == (5, 2, 4) and batch.q.shape == (5, 41, 4)
 
 
+@pytest.mark.parametrize("method", ["formulation-2", "lie-rkmk4"])
+def test_the_lanes_give_every_body_the_single_trajectorys_numbers_bit_for_bit(method):
+    """Truth: integrate(), one body at a time. Formulation II and the Lie-group method run a batch in blocks of
+    bodies in lockstep (_kernels.LANES): 300 bodies (three blocks, the last one short), random attitudes and
+    rates, their own inertia or one shared, with an attitude-dependent and a time-dependent torque, and bodies
+    that blow up at a coarse step: every component of every saved state equal, the same status and steps."""
+    from xcheck.fields import BodyFieldTable, MagneticTorque, UniformField
+    from xcheck.integrators import _kernels
+
+    rng = np.random.default_rng(3)
+    n = 300
+    assert n > 2 * _kernels.LANES
+    q0 = rot.quat_normalize(rng.normal(size=(n, 4)))
+    w0 = rng.normal(0.0, 0.5, (n, 3))
+    w0[[5, 200]] = [1e3, 2e3, -1e3]  # these blow up
+    own = np.array([np.diag(rng.uniform(0.010, 0.018, 3)) for _ in range(n)])
+    table = np.column_stack([np.linspace(0, 3, 7), rng.normal(0, 20, (7, 3))])
+    torques = [None, MagneticTorque(RAX_DIPOLE, UniformField([20.0, -10.0, 15.0])),
+               MagneticTorque(RAX_DIPOLE, BodyFieldTable(table))]
+    for inertia, torque in [(RAX_I, torques[0]), (own, torques[1]), (RAX_I, torques[2])]:
+        batch = integrate_batch(method, inertia, q0, w0, dt=0.25, duration=3.0, torque=torque, save="all")
+        for i in (0, 5, 127, 128, 200, 299):
+            one = integrate(method, inertia if np.ndim(inertia) < 3 else inertia[i], q0[i], w0[i], dt=0.25,
+                            duration=3.0, torque=torque)
+            k = len(one.t)
+            assert batch.status[i] == one.status and batch.steps_done[i] == k - 1
+            np.testing.assert_array_equal(batch.q[i, :k], one.q)
+            np.testing.assert_array_equal(batch.omega[i, :k], one.omega)
+            np.testing.assert_array_equal(batch.q[i, k:], np.repeat(one.q[-1:], len(batch.t) - k, axis=0))
+    assert batch.status[5] == "failed" and batch.status[0] == "ok"
+
+
 def test_non_integer_step_count_ends_exactly_at_duration():
     q0, w0 = gyro_initial(15.0)
     traj = integrate("lie-rkmk4", GYRO_I, q0, w0, dt=0.3, duration=1.0)
