@@ -5,6 +5,7 @@ import base64
 import io
 import json
 import re
+import signal
 import subprocess
 import sys
 from html.parser import HTMLParser
@@ -353,3 +354,21 @@ def test_timings_name_the_phases(tmp_path, capsys):
     phases = re.findall(r"([a-z ,]+) (\d+\.\d\d) s", line.removeprefix("where the time went: "))
     assert [p.strip(" ,") for p, _ in phases] == ["pool started", "scenarios read", "studies", "figures",
                                                   "files written", "workers stopped"]
+
+
+@pytest.mark.parametrize("signum, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
+def test_a_signal_that_a_module_turned_into_its_own_error_is_still_an_interrupt(monkeypatch, capsys, signum, code, word):
+    """Ctrl-C while this process imports a compiled module (it runs studies beside its workers) surfaces as
+    "ImportError: initialization failed": that is the interrupt, not a bug (exit 130 or 143, no traceback)."""
+    import argparse
+
+    from xcheck import cli
+
+    def command(args):
+        cli._SIGNALLED.append(signum)
+        raise ImportError("initialization failed")
+
+    monkeypatch.setattr(cli, "_SIGNALLED", [])
+    assert cli._run(argparse.Namespace(func=command)) == code
+    err = capsys.readouterr().err
+    assert f"xcheck: {word}; no report was written" in err and "internal error" not in err

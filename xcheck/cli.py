@@ -37,8 +37,20 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, raised in the main thread so that it unwinds (and cleans up) like Ctrl-C."""
 
 
+#: The signal this command received (Ctrl-C's SIGINT or SIGTERM), if any: one that lands inside an import of a
+#: compiled module, or inside MuJoCo's or Basilisk's call of ours, reaches us as that module's error
+#: ("ImportError: initialization failed", "Python exception raised"), which is then an interrupt all the same.
+_SIGNALLED: list = []
+
+
 def _on_sigterm(signum, frame):
+    _SIGNALLED.append(signum)
     raise Terminated()
+
+
+def _on_sigint(signum, frame):
+    _SIGNALLED.append(signum)
+    raise KeyboardInterrupt()
 
 
 # ------------------------------------------------------------------------------------------------
@@ -732,12 +744,13 @@ def main(argv: list[str] | None = None) -> int:
     warnings.filterwarnings("ignore", category=UserWarning, module=r"xcheck\.models")
     previous = None
     if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+        previous = signal.signal(signal.SIGTERM, _on_sigterm), signal.signal(signal.SIGINT, _on_sigint)
     try:
         return _run(args)
     finally:
         if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+            signal.signal(signal.SIGTERM, previous[0])
+            signal.signal(signal.SIGINT, previous[1])
 
 
 #: The errors a user can cause, by the module that raises them (imported only by the commands that use them).
@@ -762,6 +775,12 @@ def _run(args) -> int:
             # a worker died. A signal to the process group (Ctrl-C, kill -TERM) reaches the workers too, and
             # the broken pool can surface before this process's own signal does: give that a moment to land
             time.sleep(0.5)
+            raise
+        except KeyboardInterrupt:
+            raise
+        except Exception:
+            if _SIGNALLED:  # the signal, turned into another error by the module it landed in (see _SIGNALLED)
+                raise (Terminated() if _SIGNALLED[0] == signal.SIGTERM else KeyboardInterrupt()) from None
             raise
     except BrokenProcessPool:
         print("xcheck: error: a worker process died (killed from outside, or out of memory); no report was written",
