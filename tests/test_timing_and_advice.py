@@ -216,7 +216,8 @@ def test_an_adaptive_method_is_recommended_at_its_tolerance():
 def test_xcheck_without_leaves_an_installed_engine_out():
     pytest.importorskip("Basilisk", reason="Basilisk is not installed (pip install 'xcheck[basilisk]')")
     code = "from xcheck.runners import RUNNERS; print(sorted(n for n in RUNNERS if n.startswith('basilisk')))"
+    base = {k: v for k, v in os.environ.items() if k != "XCHECK_WITHOUT"}
     run = lambda env: subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,  # noqa: E731
-                                     env={**os.environ, **env}, check=True).stdout.strip()
+                                     env={**base, **env}, check=True).stdout.strip()
     assert run({}) == str(["basilisk-rk4", "basilisk-rkf45", "basilisk-rkf78"])
     assert run({"XCHECK_WITHOUT": "basilisk"}) == "[]"
