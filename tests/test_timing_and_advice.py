@@ -173,8 +173,8 @@ def test_an_adaptive_ladder_that_cannot_run_is_refused_by_name(tmp_path, line, m
 # what the first screen recommends
 # ------------------------------------------------------------------------------------------------------
 def _method(name, wall, engine="xcheck", verdict="pass"):
-    m = MethodResult(name, engine, RUNNERS[name].expected_order, runs=[Run(0.01, attitude_error=1e-7)],
-                     verdict=verdict)
+    m = MethodResult(name, engine, RUNNERS[name].expected_order if name in RUNNERS else 4,  # Basilisk's may be absent
+                     runs=[Run(0.01, attitude_error=1e-7)], verdict=verdict)
     m.within = {"1e-06": StepWithin(0.01, wall, "interpolated")}
     return m
 
@@ -194,6 +194,10 @@ def test_a_demonstration_is_never_recommended_and_the_first_screen_says_why():
     assert text.startswith("Cheapest to 1e-6 rad over the run: lie-rkmk4 at Δt ≈ 0.01 s (0.3 ms a run).")
     assert "(lie-thesis-172 would take 0.1 ms but is not advised: it is seed 004's algorithm 172 as printed" in text
     assert "Cheapest in mujoco: mujoco-rk4" in text and "30× the time" in text
+    # every other engine gets its own cheapest, MuJoCo's first, whichever is cheaper
+    st.methods["basilisk-rk4"] = _method("basilisk-rk4", 1e-3, engine="basilisk")
+    text = " ".join(recommendation(st))
+    assert text.index("Cheapest in mujoco: mujoco-rk4") < text.index("Cheapest in basilisk: basilisk-rk4")
     assert "lie-thesis-172" not in scenario_summary(_study([_method("lie-rkmk4", 3e-4),
                                                             _method("lie-thesis-172", 9e-4)]))
 

@@ -44,13 +44,36 @@ _SIGNALLED: list = []
 
 
 def _on_sigterm(signum, frame):
-    _SIGNALLED.append(signum)
+    _signalled(signum)
     raise Terminated()
 
 
 def _on_sigint(signum, frame):
-    _SIGNALLED.append(signum)
+    _signalled(signum)
     raise KeyboardInterrupt()
+
+
+#: An interrupt raised inside an object's ``__del__`` is printed as "Exception ignored" and lost; it is raised once
+#: more this long after the signal, wherever the work is then (the clean-up steps survive a second interrupt).
+REPEAT_INTERRUPT = 0.5
+
+
+def _signalled(signum) -> None:
+    _SIGNALLED.append(signum)
+    if len(_SIGNALLED) == 1 and hasattr(signal, "setitimer"):
+        signal.setitimer(signal.ITIMER_REAL, REPEAT_INTERRUPT)
+
+
+def _on_alarm(signum, frame):
+    _raise_if_signalled()
+
+
+def _raise_if_signalled() -> None:
+    """Raise the interrupt again where the work reports progress: one raised inside an object's ``__del__`` (a
+    compiled module's, while this process imports or compiles) is printed as "Exception ignored" and the work
+    goes on, as if there had been no Ctrl-C."""
+    if _SIGNALLED:
+        raise Terminated() if _SIGNALLED[0] == signal.SIGTERM else KeyboardInterrupt()
 
 
 # ------------------------------------------------------------------------------------------------
@@ -63,6 +86,7 @@ class Progress:
         self.start = time.perf_counter()
 
     def __call__(self, done: int, total: int, label: str = ""):
+        _raise_if_signalled()
         if not self.enabled:
             return
         width = 30
@@ -743,14 +767,19 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     warnings.filterwarnings("ignore", category=UserWarning, module=r"xcheck\.models")
     previous = None
+    _SIGNALLED.clear()  # a command run again in the same process (the tests) starts uninterrupted
     if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, _on_sigterm), signal.signal(signal.SIGINT, _on_sigint)
+        previous = [(sig, signal.signal(sig, handler)) for sig, handler in
+                    ((signal.SIGTERM, _on_sigterm), (signal.SIGINT, _on_sigint),
+                     *(((signal.SIGALRM, _on_alarm),) if hasattr(signal, "SIGALRM") else ()))]
     try:
         return _run(args)
     finally:
         if previous is not None:
-            signal.signal(signal.SIGTERM, previous[0])
-            signal.signal(signal.SIGINT, previous[1])
+            if hasattr(signal, "setitimer"):
+                signal.setitimer(signal.ITIMER_REAL, 0)
+            for sig, handler in previous:
+                signal.signal(sig, handler)
 
 
 #: The errors a user can cause, by the module that raises them (imported only by the commands that use them).

@@ -313,11 +313,14 @@ def recommendation(st, key: str = "1e-06") -> list[str]:
     if cheaper:
         w0, m0 = min(cheaper, key=lambda x: x[0])
         out.append(f"({m0.name} would take {_ms(w0)} but is not advised: it is {demo(m0)}.)")
-    engines = [(w, m) for w, m in advised if m.engine != best.engine]
-    if engines:
-        w2, other = min(engines, key=lambda x: x[0])
-        out.append(f"Cheapest {'of ours' if other.engine == 'xcheck' else 'in ' + other.engine}: {other.name} "
-                   f"{_at(other.within[key])} ({_ms(w2)}, {w2 / wall:.2g}× the time).")
+    for engine in dict.fromkeys(["xcheck", "mujoco", *(m.engine for _, m in advised)]):  # ours, MuJoCo, the others
+        if engine == best.engine:
+            continue
+        theirs = [(w, m) for w, m in advised if m.engine == engine]
+        if theirs:
+            w2, other = min(theirs, key=lambda x: x[0])
+            out.append(f"Cheapest {'of ours' if engine == 'xcheck' else 'in ' + engine}: {other.name} "
+                       f"{_at(other.within[key])} ({_ms(w2)}, {w2 / wall:.2g}× the time).")
     missing = [m.name for m in st.methods.values() if m.engine != "xcheck" and m.name not in
                {n.name for _, n in reach}]
     if missing:
