@@ -15,7 +15,7 @@ import pytest
 from xcheck import testing as T
 from xcheck.models import BUNDLED_MODELS
 from xcheck.scenario import load_scenario, resolve_scenario
-from xcheck.study import default_methods, planned_checks, run_study
+from xcheck.study import default_methods, planned_checks
 
 pytest_plugins = ["pytester"]
 

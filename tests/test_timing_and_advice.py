@@ -5,8 +5,6 @@ Truths: a fake clock for the repeat rule; the exact torque-free solution for the
 tolerance must give a smaller error); the classical RK4's four stages for the evaluation counts; made-up study
 results with known costs for the recommendation rule."""
 
-import dataclasses
-import json
 import os
 import subprocess
 import sys
@@ -49,6 +47,8 @@ class _Runner:
         self.runs += 1
         self.clock.advance()
         return type("T", (), {"ok": self.ok})()
+
+    run_at = run
 
 
 @pytest.mark.parametrize("seconds, first, repeats, best", [

@@ -178,16 +178,17 @@ def _steps_arg(text, scenario):
 
 
 def _cmd_converge(args) -> int:
-    from .engines import available
+    from .engines import ENGINES, available
     from .pool import worker_pool
 
     # A study is quicker in this process than shared with workers, which each pay 1-1.5 s of imports and
-    # compiled-code loading before their first run, except for Basilisk's methods: they cost 0.5 s of import
-    # more and are the longest runs. With Basilisk installed (and not left out by --methods) one worker starts
-    # before anything is imported here, imports it, and runs Basilisk's methods while this process runs the
-    # rest. --workers N: that many processes for the whole study; --workers 1: this process alone.
-    basilisk = available("basilisk") and (args.methods is None or "basilisk" in args.methods)
-    size = args.workers - 1 if args.workers and args.workers > 1 else (1 if args.workers is None and basilisk else 0)
+    # compiled-code loading before their first run, except for the methods of an engine whose import is costly
+    # (Basilisk's: 0.5 s more, and the longest runs). With one installed (and not left out by --methods) one
+    # worker starts before anything is imported here, imports it, and runs its methods while this process runs
+    # the rest. --workers N: that many processes for the whole study; --workers 1: this process alone.
+    costly = any(e.to_workers and available(e.name) and (args.methods is None or e.name in args.methods)
+                 for e in ENGINES.values())
+    size = args.workers - 1 if args.workers and args.workers > 1 else (1 if args.workers is None and costly else 0)
     with worker_pool(size, warm=worker_modules(figures=False)) if size else nullcontext() as pool:
         return _converge(args, pool)
 
@@ -251,7 +252,7 @@ def _cmd_run(args) -> int:
         check_output_file(args.plot, "--plot", suffixes=PLOT_SUFFIXES)
     ctx = run_context(scenario)
     t0 = time.perf_counter()
-    traj = runner.run(ctx, args.dt) if args.rtol is None else runner.run(ctx, args.dt, args.rtol)
+    traj = runner.run_at(ctx, args.dt, args.rtol)
     wall = time.perf_counter() - t0
     print(f"{scenario.name} / {args.method} at dt = {args.dt:g} s: {traj.status} ({len(traj.t) - 1} steps, "
           f"{wall:.3g} s)")
@@ -303,17 +304,12 @@ def _plot_run(path, title, traj, err):
     save_figure(fig, path)
 
 
-#: What a report's workers import as soon as they start (studies, MuJoCo, figures).
-WORKER_MODULES = ("xcheck.study", "xcheck.engines.mujoco", "xcheck.report.plots")
-
-
 def worker_modules(figures: bool = True) -> tuple:
-    """What a worker imports as it starts: the study, MuJoCo's engine, matplotlib's plots (``figures``) and,
-    installed, Basilisk's engine and messages."""
-    from .engines import available
+    """What a worker imports as it starts: the study, the engines available here
+    (:func:`xcheck.engines.warm_modules`) and matplotlib's plots (``figures``)."""
+    from .engines import warm_modules
 
-    modules = WORKER_MODULES if figures else tuple(m for m in WORKER_MODULES if m != "xcheck.report.plots")
-    return modules + (("xcheck.engines.basilisk", "Basilisk.simulation.spacecraft") if available("basilisk") else ())
+    return ("xcheck.study",) + warm_modules() + (("xcheck.report.plots",) if figures else ())
 
 
 def _cmd_report(args) -> int:

@@ -8,7 +8,6 @@ data="mx my mz"/></custom>`` [A m^2] in body components.
 from __future__ import annotations
 
 import copy
-
 import warnings
 from dataclasses import dataclass
 from pathlib import Path

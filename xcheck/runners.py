@@ -3,10 +3,11 @@ runner with one signature: ``runner.run(context, dt) -> Trajectory``."""
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from typing import Callable
 
-from .engines import WITHOUT_VARIABLE, available
+from .engines import WITHOUT_VARIABLE, available, installed, left_out
 from .integrators import METHODS, integrate, integrate_batch
 from .trajectory import Trajectory
 
@@ -57,6 +58,10 @@ class Runner:
     twin: str | None = None
     adaptive: bool = False
     demonstration: str | None = None
+
+    def run_at(self, ctx: RunContext, dt: float, rtol: float | None = None) -> Trajectory:
+        """``run`` at the step ``dt`` and, for an adaptive method, the tolerance ``rtol`` (None: its defaults)."""
+        return self.run(ctx, dt) if rtol is None else self.run(ctx, dt, rtol)
 
     def order_for(self, torque: dict | None) -> tuple[int | None, str | None]:
         """The order expected of this method with a scenario's torque, and why when it is not the method's own."""
@@ -140,11 +145,7 @@ if available("basilisk"):
 def unknown_method(name: str) -> str:
     """The message for a method name that is not a runner: an engine's that is not installed says how to get it."""
     if name in BASILISK_METHODS:
-        import importlib.util
-        import os
-
-        left_out = {e.strip() for e in os.environ.get(WITHOUT_VARIABLE, "").split(",")}
-        if "basilisk" in left_out and importlib.util.find_spec("Basilisk") is not None:
+        if left_out("basilisk") and installed("basilisk"):
             return (f"{name!r} is Basilisk's, which ${WITHOUT_VARIABLE} ({os.environ.get(WITHOUT_VARIABLE, '')!r}) "
                     "leaves out here")
         return (f"{name!r} is Basilisk's, which is not installed here: pip install 'xcheck[basilisk]' (the PyPI "

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import rotations as rot
+from .engines import ENGINES
 from .metrics import (ORDER_FLOOR, TOLERANCES, StepWithin, errors_against, invariant_drift, largest_step_within,
                       observed_order, tolerance_key)
 from .pool import ready_workers, worker_pool
@@ -155,9 +156,10 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
 
 
 def _prefer_here(task) -> bool:
-    """The tasks this process takes first when it works beside a pool: not Basilisk's (its import costs 0.5 s a
-    process; the workers load it)."""
-    return RUNNERS[task[1]].engine != "basilisk"
+    """The tasks this process takes first when it works beside a pool: not those of an engine whose import
+    is costly (:attr:`xcheck.engines.Engine.to_workers`: the workers import it as they start)."""
+    engine = ENGINES.get(RUNNERS[task[1]].engine)  # None: ours
+    return engine is None or not engine.to_workers
 
 
 def _map(fn, tasks, *, workers, progress, pool, labels, on_result=None, here=None):
@@ -195,12 +197,13 @@ def _map(fn, tasks, *, workers, progress, pool, labels, on_result=None, here=Non
 
 def _map_here(fn, tasks, pool, record, prefer) -> None:
     """Share ``tasks`` between ``pool`` and this process. The pool takes them from the front of a queue in which
-    the tasks this process would rather not run come first (``prefer(task)`` False: Basilisk's, whose engine the
+    the tasks this process would rather not run come first (``prefer(task)`` False: those of an engine the
     workers import as they start), kept one task ahead of its workers so that what else is submitted to it, a
     scenario's figures, is not queued behind every study, and given none before one of them has started (a task
     waiting for a worker's imports is better run here); this process takes them from the back, collecting
-    finished results between its own, and the workers' own too when more are left than the workers take next. Every process pays its imports and compiled-code loading once (1-3 s): a
-    worker fewer, and this process working, is that much less to pay."""
+    finished results between its own, and the workers' own too when more are left than the workers take next.
+    Every process pays its imports and compiled-code loading once (1-3 s): a worker fewer, and this process
+    working, is that much less to pay."""
     pending = sorted(range(len(tasks)), key=lambda i: bool(prefer(tasks[i])))  # stable: the given order within
     futures: dict = {}
 
@@ -357,7 +360,7 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
     for dt, rtol in plan:
         t0 = time.perf_counter()
         try:
-            traj, wall, repeats = timed_run(runner, ctx, dt, rtol, repeats=TIMING_REPEATS if timing else 1)
+            traj, wall, repeats = timed_run(runner, ctx, dt, rtol, max_runs=TIMING_REPEATS if timing else 1)
         except ValueError as exc:  # e.g. a step the run cannot take
             runs.append(Run.failed(dt, "failed", f"{method}: {exc}", time.perf_counter() - t0, rtol))
             continue
@@ -383,24 +386,20 @@ TIMING_BUDGET = 0.01
 TIMING_REPEATS = 5
 
 
-def timed_run(runner, ctx, dt: float, rtol: float | None = None, *, repeats: int = TIMING_REPEATS):
+def timed_run(runner, ctx, dt: float, rtol: float | None = None, *, max_runs: int = TIMING_REPEATS):
     """``(trajectory, best wall time [s], runs timed)`` of ``runner`` at ``dt`` (and ``rtol``, an adaptive
-    method's): repeated while short, up to ``repeats`` runs (see :data:`TIMING_BUDGET`); the trajectory is the
+    method's): repeated while short, up to ``max_runs`` runs (see :data:`TIMING_BUDGET`); the trajectory is the
     first run's (every run computes the same numbers)."""
-    limit = repeats
-    def once():
-        return runner.run(ctx, dt) if rtol is None else runner.run(ctx, dt, rtol)
-
     t0 = time.perf_counter()
-    traj = once()
+    traj = runner.run_at(ctx, dt, rtol)
     best = spent = time.perf_counter() - t0
-    repeats = 1
-    while traj.ok and repeats < limit and spent < TIMING_BUDGET:
+    runs = 1
+    while traj.ok and runs < max_runs and spent < TIMING_BUDGET:
         t0 = time.perf_counter()
-        once()
+        runner.run_at(ctx, dt, rtol)
         wall = time.perf_counter() - t0
-        best, spent, repeats = min(best, wall), spent + wall, repeats + 1
-    return traj, best, repeats
+        best, spent, runs = min(best, wall), spent + wall, runs + 1
+    return traj, best, runs
 
 
 def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float, *, repeats: int | None = None,
@@ -410,15 +409,14 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float,
     adaptive method's tolerance."""
     if not traj.ok:
         return Run.failed(dt, traj.status, traj.message, wall, rtol)
-    n, _ = step_plan(dt, ctx.duration)
     q_ref, w_ref, mask = ref.at(traj.t)  # at the trajectory's own times (an engine's clock may round the step)
     err = errors_against(_subset(traj, mask), q_ref[mask], w_ref[mask])
     drift = invariant_drift(ctx.inertia, traj)
     torque_free = ctx.torque is None
     run = Run(dt=dt, **err, energy_drift=drift["energy_drift"] if torque_free else None,
               momentum_drift=drift["momentum_drift"] if torque_free else None, norm_drift=drift["norm_drift"],
-              wall_time=wall, steps_per_second=n / wall if wall > 0 else None, message=traj.extras.get("clock") or "",
-              repeats=repeats, evaluations=traj.extras.get("evaluations"), rtol=rtol)
+              wall_time=wall, steps_per_second=_steps_per_second(dt, ctx.duration, wall),
+              message=traj.extras.get("clock") or "", repeats=repeats, evaluations=traj.extras.get("evaluations"), rtol=rtol)
     if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
         return Run.failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall, rtol)
     return run
@@ -441,13 +439,17 @@ def _retime_outliers(runner, ctx, runs) -> None:
             return
         for _ in range(RETIME_REPEATS):
             t0 = time.perf_counter()
-            runner.run(ctx, before.dt) if before.rtol is None else runner.run(ctx, before.dt, before.rtol)
+            runner.run_at(ctx, before.dt, before.rtol)
             before.wall_time = min(before.wall_time, time.perf_counter() - t0)
             before.repeats = (before.repeats or 1) + 1
             if before.wall_time <= after.wall_time:
                 break
-        n, _ = step_plan(before.dt, ctx.duration)
-        before.steps_per_second = n / before.wall_time if before.wall_time > 0 else None
+        before.steps_per_second = _steps_per_second(before.dt, ctx.duration, before.wall_time)
+
+
+def _steps_per_second(dt: float, duration: float, wall: float) -> float | None:
+    n, _ = step_plan(dt, duration)
+    return n / wall if wall > 0 else None
 
 
 def _more_work(a: Run, b: Run) -> bool:
@@ -471,7 +473,7 @@ def _warm(runner, ctx, plan) -> None:
     dt, rtol = min(plan)
     try:
         short = dataclasses.replace(ctx, duration=min(ctx.duration, 2 * dt))
-        runner.run(short, dt) if rtol is None else runner.run(short, dt, rtol)
+        runner.run_at(short, dt, rtol)
     except ValueError:
         pass  # the timed runs will say why
 
@@ -520,7 +522,7 @@ def _sample(finest, ref, ctx):
     if "euler" in traj.extras:
         out["euler"] = traj.extras["euler"][idx]
     if ctx.torque is not None:
-        out["torque"] = np.array([ctx.torque(tt, qq, ww) for tt, qq, ww in zip(t, q, out["omega"])])
+        out["torque"] = ctx.torque.many(t, q, out["omega"])
     return out
 
 
@@ -550,10 +552,7 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
             for tol in TOLERANCES}
         order, note, local = fit.order, fit.note, fit.local_orders
         if runner.adaptive:  # its ladder is of tolerances: the slope is its tolerance proportionality, not an order
-            order, local = None, []
-            note = (f"adaptive, at its own tolerances (output every {step_label(runs[0].dt)} s): the error goes as "
-                    f"rtol^{fit.order:.2f} ({fit.note.replace('dt = ', 'rtol = ').replace(' s', '')})"
-                    if fit.order is not None else f"adaptive, at its own tolerances: {fit.note}") if runs else ""
+            order, local, note = None, [], _adaptive_note(runs, fit)
             within = {k: StepWithin(None, w.wall_time, w.how, rtol=w.dt) for k, w in within.items()}
         methods[name] = MethodResult(name=name, engine=runner.engine,
                                      expected_order=runner.order_for(scenario.torque)[0],
@@ -646,6 +645,17 @@ def planned_checks(scenario: Scenario, methods, quick: bool = False) -> list[tup
         if runner.agreement and ours4 and runner.order_for(scenario.torque)[1] is None:
             out.append((m, "agreement"))
     return out
+
+
+def _adaptive_note(runs, fit) -> str:
+    """An adaptive method's order note: how its error goes with the tolerance (the slope fitted over ``rtol``)."""
+    if not runs:
+        return ""
+    if fit.order is None:
+        return f"adaptive, at its own tolerances: {fit.note}"
+    fitted = fit.note.replace("dt = ", "rtol = ").replace(" s", "")
+    return (f"adaptive, at its own tolerances (output every {step_label(runs[0].dt)} s): the error goes as "
+            f"rtol^{fit.order:.2f} ({fitted})")
 
 
 def _checks(scenario, methods, cfg, quick=False) -> list[Check]:

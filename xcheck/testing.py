@@ -28,7 +28,7 @@ def _scenario(scenario_or_path):
 
 
 def _steps_text(steps) -> str:
-    from .report.document import step_label
+    from .trajectory import step_label
 
     steps = sorted(steps, reverse=True)
     return f"{step_label(steps[0])} … {step_label(steps[-1])} s ({len(steps)} steps)" if len(steps) > 1 else \
@@ -42,7 +42,7 @@ def _num(v) -> str:
 def method_line(study, method: str) -> str:
     """The report's line for one method: its finest good run's errors, its observed order, its runs that
     failed (the runs table and the order column of the report, in one line)."""
-    from .report.document import step_label
+    from .trajectory import step_label
 
     m = study.methods[method]
     parts = []

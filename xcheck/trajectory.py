@@ -7,8 +7,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "step_label", "time_grid", "check_step", "check_initial_state",
-           "available_memory"]
+__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "step_label", "time_grid", "check_step",
+           "check_initial_state", "tolerances_at", "available_memory"]
 
 #: Relative tolerance for treating ``duration / dt`` as an integer number of steps.
 _INTEGER_STEPS_RTOL = 1e-9
@@ -175,6 +175,18 @@ def check_step(dt, duration, *, runs_at_once: int | None = None) -> int:
                          f"{need / 2**30:.3g} GiB, more than half of the {avail / 2**30:.3g} GiB available here: use a "
                          "larger step or a shorter duration")
     return step_plan(dt, duration)[0]
+
+
+def tolerances_at(rtol, defaults: tuple[float, float]) -> tuple[float, float]:
+    """An adaptive method's ``(relative, absolute)`` tolerances at the relative tolerance ``rtol``, the absolute
+    one in the proportion of the method's ``defaults`` (returned as they are for None); a ValueError for an
+    ``rtol`` outside (0, 1)."""
+    rel, abs_ = defaults
+    if rtol is None:
+        return rel, abs_
+    if not (np.isfinite(rtol) and 0 < rtol < 1):
+        raise ValueError(f"rtol: expected a relative tolerance in (0, 1), got {rtol!r}")
+    return float(rtol), float(rtol) * abs_ / rel
 
 
 def step_label(dt: float) -> str:

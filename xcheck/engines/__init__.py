@@ -1,7 +1,8 @@
 """The simulators xcheck cross-checks. An engine is its module here, its entry in :data:`ENGINES` and its
 runners in :mod:`xcheck.runners`: the module provides the simulation (``simulate`` -> ``Trajectory``) and may
 provide ``bench_extras(contexts, dt, nsteps, repeat)`` (rows of its own for ``xcheck bench``); the entry names
-the distribution whose version every report records (:func:`xcheck.versions.versions`)."""
+the distribution whose version every report records (:func:`xcheck.versions.versions`), the modules a worker
+imports as it starts, and whether a process working beside a pool leaves the engine's runs to the workers."""
 
 from __future__ import annotations
 
@@ -13,10 +14,16 @@ class Engine:
     name: str  # the runners' ``engine`` field, the prefix of their method names
     package: str  # the distribution whose version a report records
     module: str  # the module with ``simulate`` (imported only when the engine runs)
+    top_level: str  # the package found (without importing it) to tell whether the engine is installed
+    warm: tuple = ()  # what a worker imports as it starts, where the engine is available
+    #: its import is costly (Basilisk's: 0.5 s a process): a process that works beside a pool leaves its runs
+    #: to the workers, which import it as they start, and a study that runs them starts a worker for them
+    to_workers: bool = False
 
 
-ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco"),
-           "basilisk": Engine("basilisk", "bsk", "xcheck.engines.basilisk")}
+ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco", "mujoco", warm=("xcheck.engines.mujoco",)),
+           "basilisk": Engine("basilisk", "bsk", "xcheck.engines.basilisk", "Basilisk",
+                              warm=("xcheck.engines.basilisk", "Basilisk.simulation.spacecraft"), to_workers=True)}
 
 
 #: An optional engine is left out, although installed, when ``$XCHECK_WITHOUT`` names it (comma-separated):
@@ -25,14 +32,30 @@ ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco"),
 WITHOUT_VARIABLE = "XCHECK_WITHOUT"
 
 
-def available(engine: str) -> bool:
+def installed(engine: str) -> bool:
     """Whether an engine's package is installed (MuJoCo always is; Basilisk is the optional extra ``basilisk``),
-    found without importing it, and not left out by ``$XCHECK_WITHOUT``."""
+    found without importing it."""
     import importlib.util
+
+    return importlib.util.find_spec(ENGINES[engine].top_level) is not None
+
+
+def left_out(engine: str) -> bool:
+    """Whether ``$XCHECK_WITHOUT`` leaves an optional engine out (MuJoCo never is)."""
     import os
 
-    if engine != "mujoco" and engine in {e.strip() for e in os.environ.get(WITHOUT_VARIABLE, "").split(",")}:
-        return False
-    return importlib.util.find_spec({"mujoco": "mujoco", "basilisk": "Basilisk"}[engine]) is not None
+    return engine != "mujoco" and engine in {e.strip() for e in os.environ.get(WITHOUT_VARIABLE, "").split(",")}
+
+
+def available(engine: str) -> bool:
+    """Whether an engine runs here: installed and not left out."""
+    return not left_out(engine) and installed(engine)
+
+
+def warm_modules() -> tuple:
+    """What a worker imports as it starts for the engines available here."""
+    return tuple(m for engine in ENGINES.values() if available(engine.name) for m in engine.warm)
+
+
 #: engine name -> the distribution whose version a report records
 ENGINE_PACKAGES = {name: engine.package for name, engine in ENGINES.items()}

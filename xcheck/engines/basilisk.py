@@ -53,7 +53,7 @@ import numpy as np
 from .. import rotations as rot
 from ..fields.kernel import MU0
 from ..fields.models import ConstantTorque, MagneticTorque
-from ..trajectory import Trajectory, check_initial_state, continuous_quaternions
+from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, tolerances_at
 
 __all__ = ["simulate", "INTEGRATORS", "to_basilisk", "from_basilisk", "clock_step"]
 
@@ -142,8 +142,7 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
     if rtol is not None and integrator not in ADAPTIVE:
         raise ValueError(f"rtol: basilisk-{integrator} is a fixed-step method; a tolerance applies to "
                          f"{', '.join('basilisk-' + a for a in ADAPTIVE)}")
-    if rtol is not None and not (np.isfinite(rtol) and 0 < rtol < 1):
-        raise ValueError(f"rtol: expected a relative tolerance in (0, 1), got {rtol!r}")
+    tolerances = tolerances_at(rtol, DEFAULT_TOLERANCES) if integrator in ADAPTIVE else None
     q0, omega0 = check_initial_state(q0, omega0)
     ns, clock_note = clock_step(float(dt))
     n = int((round(float(duration) * 1e9)) // ns)
@@ -160,13 +159,8 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
     sc.hub.sigma_BNInit = [[float(x)] for x in sigma0]
     sc.hub.omega_BN_BInit = [[float(x)] for x in w0]
     integ = getattr(b.svIntegrators, INTEGRATORS[integrator])(sc)
-    tolerances = None
-    if integrator in ADAPTIVE:
-        rel, abs_ = DEFAULT_TOLERANCES
-        if rtol is not None:
-            rel, abs_ = float(rtol), float(rtol) * abs_ / rel
-            integ.relTol, integ.absTol = rel, abs_
-        tolerances = (rel, abs_)
+    if rtol is not None:
+        integ.relTol, integ.absTol = tolerances
     sc.setIntegrator(integ)
     sim.keep.append(integ)  # SWIG objects the simulation points at must outlive it
 

@@ -19,7 +19,7 @@ import numpy as np
 from .. import rotations as rot
 from ..body import validate_inertia
 from ..fields import TorqueModel
-from ..trajectory import Trajectory, check_initial_state, step_plan, time_grid
+from ..trajectory import Trajectory, check_initial_state, step_plan, time_grid, tolerances_at
 from . import _kernels
 from .kernel_args import KernelArgs
 from .methods import METHODS, Method
@@ -137,11 +137,7 @@ def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, t
     if info.kernel is None:
         from .scipy_rk45 import integrate_scipy_rk45
 
-        rel, abs_ = info.tolerances
-        if rtol is not None:
-            if not (np.isfinite(rtol) and 0 < rtol < 1):
-                raise ValueError(f"rtol: expected a relative tolerance in (0, 1), got {rtol!r}")
-            rel, abs_ = float(rtol), float(rtol) * abs_ / rel
+        rel, abs_ = tolerances_at(rtol, info.tolerances)
         return integrate_scipy_rk45(I, q0, omega0, t, torque, float(dt), rtol=rel, atol=abs_)
 
     kern = _kernels_for(python=python)

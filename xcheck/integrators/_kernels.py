@@ -232,10 +232,25 @@ def euler_rates(i00, i01, i02, i10, i11, i12, i20, i21, i22, j00, j01, j02, j10,
 
 
 @ijit
+def G_s(e0, e1, e2, e3, v0, v1, v2, v3):
+    """``G(p) v`` with ``G = [-e, -e~ + e0 I]`` (seed 004 eq. 94), ``v`` of length 4."""
+    return (-e1 * v0 + e0 * v1 + e3 * v2 - e2 * v3,
+            -e2 * v0 - e3 * v1 + e0 * v2 + e1 * v3,
+            -e3 * v0 + e2 * v1 - e1 * v2 + e0 * v3)
+
+
+@ijit
+def GT_s(e0, e1, e2, e3, v0, v1, v2):
+    """``G(p)^T v`` (seed 004 eq. 94), ``v`` of length 3."""
+    return (-e1 * v0 - e2 * v1 - e3 * v2, e0 * v0 - e3 * v1 + e2 * v2,
+            e3 * v0 + e0 * v1 - e1 * v2, -e2 * v0 + e1 * v1 + e0 * v2)
+
+
+@ijit
 def f2_kinematics(e0, e1, e2, e3, w0, w1, w2):
     """``p' = 1/2 G(p)^T w'`` (seed 004 eq. 162, G of eq. 94)."""
-    return ((-e1 * w0 - e2 * w1 - e3 * w2) * 0.5, (e0 * w0 - e3 * w1 + e2 * w2) * 0.5,
-            (e3 * w0 + e0 * w1 - e1 * w2) * 0.5, (-e2 * w0 + e1 * w1 + e0 * w2) * 0.5)
+    a0, a1, a2, a3 = GT_s(e0, e1, e2, e3, w0, w1, w2)
+    return a0 * 0.5, a1 * 0.5, a2 * 0.5, a3 * 0.5
 
 
 @jit
@@ -264,17 +279,6 @@ def dexpinv_minus(u, w, out):
 
 
 @jit
-def matvec(M, v, out):
-    """``out = M @ v`` for 3x3 ``M`` (no BLAS call, no allocation)."""
-    a = M[0, 0] * v[0] + M[0, 1] * v[1] + M[0, 2] * v[2]
-    b = M[1, 0] * v[0] + M[1, 1] * v[1] + M[1, 2] * v[2]
-    c = M[2, 0] * v[0] + M[2, 1] * v[1] + M[2, 2] * v[2]
-    out[0] = a
-    out[1] = b
-    out[2] = c
-
-
-@jit
 def cross(a, b, out):
     x = a[1] * b[2] - a[2] * b[1]
     y = a[2] * b[0] - a[0] * b[2]
@@ -295,25 +299,6 @@ def euler_equation(I, Iinv, tau, w, out):
     out[0], out[1], out[2] = euler_rates(I[0, 0], I[0, 1], I[0, 2], I[1, 0], I[1, 1], I[1, 2], I[2, 0], I[2, 1], I[2, 2],
                                          Iinv[0, 0], Iinv[0, 1], Iinv[0, 2], Iinv[1, 0], Iinv[1, 1], Iinv[1, 2],
                                          Iinv[2, 0], Iinv[2, 1], Iinv[2, 2], tau[0], tau[1], tau[2], w[0], w[1], w[2])
-
-
-@jit
-def G_times(p, v4, out):
-    """``G(p) v`` with ``G = [-e, -e~ + e0 I]`` (seed 004 eq. 94), ``v`` of length 4."""
-    e0, e1, e2, e3 = p[0], p[1], p[2], p[3]
-    out[0] = -e1 * v4[0] + e0 * v4[1] + e3 * v4[2] - e2 * v4[3]
-    out[1] = -e2 * v4[0] - e3 * v4[1] + e0 * v4[2] + e1 * v4[3]
-    out[2] = -e3 * v4[0] + e2 * v4[1] - e1 * v4[2] + e0 * v4[3]
-
-
-@jit
-def GT_times(p, v3, out):
-    """``G(p)^T v`` (seed 004 eq. 94), ``v`` of length 3."""
-    e0, e1, e2, e3 = p[0], p[1], p[2], p[3]
-    out[0] = -e1 * v3[0] - e2 * v3[1] - e3 * v3[2]
-    out[1] = e0 * v3[0] - e3 * v3[1] + e2 * v3[2]
-    out[2] = e3 * v3[0] + e0 * v3[1] - e1 * v3[2]
-    out[3] = -e2 * v3[0] + e1 * v3[1] + e0 * v3[2]
 
 
 @jit
@@ -494,10 +479,7 @@ def deriv_formulation1(t, y, dy, I, Iinv, tk, tP, tT, work):
     tau, w = work[0:3], work[3:6]
     e0, e1, e2, e3 = y[0], y[1], y[2], y[3]
     d0, d1, d2, d3 = y[4], y[5], y[6], y[7]
-    # G(p) p' (eq. 94)
-    g0 = -e1 * d0 + e0 * d1 + e3 * d2 - e2 * d3
-    g1 = -e2 * d0 - e3 * d1 + e0 * d2 + e1 * d3
-    g2 = -e3 * d0 + e2 * d1 - e1 * d2 + e0 * d3
+    g0, g1, g2 = G_s(e0, e1, e2, e3, d0, d1, d2, d3)  # G(p) p' (eq. 94)
     w[0] = 2.0 * g0  # eq. 140
     w[1] = 2.0 * g1
     w[2] = 2.0 * g2
@@ -506,14 +488,8 @@ def deriv_formulation1(t, y, dy, I, Iinv, tk, tP, tT, work):
     v0 = I[0, 0] * g0 + I[0, 1] * g1 + I[0, 2] * g2
     v1 = I[1, 0] * g0 + I[1, 1] * g1 + I[1, 2] * g2
     v2 = I[2, 0] * g0 + I[2, 1] * g1 + I[2, 2] * g2
-    # G(p')^T I' G p'
-    u0 = -d1 * v0 - d2 * v1 - d3 * v2
-    u1 = d0 * v0 - d3 * v1 + d2 * v2
-    u2 = d3 * v0 + d0 * v1 - d1 * v2
-    u3 = -d2 * v0 + d1 * v1 + d0 * v2
-    r0 = -e1 * u0 + e0 * u1 + e3 * u2 - e2 * u3
-    r1_ = -e2 * u0 - e3 * u1 + e0 * u2 + e1 * u3
-    r2_ = -e3 * u0 + e2 * u1 - e1 * u2 + e0 * u3
+    u0, u1, u2, u3 = GT_s(d0, d1, d2, d3, v0, v1, v2)  # G(p')^T I' G p'
+    r0, r1_, r2_ = G_s(e0, e1, e2, e3, u0, u1, u2, u3)
     r0 = tau[0] - 4.0 * r0
     r1_ = tau[1] - 4.0 * r1_
     r2_ = tau[2] - 4.0 * r2_
@@ -521,11 +497,7 @@ def deriv_formulation1(t, y, dy, I, Iinv, tk, tP, tT, work):
     h0 = (Iinv[0, 0] * r0 + Iinv[0, 1] * r1_ + Iinv[0, 2] * r2_) * 0.5
     h1 = (Iinv[1, 0] * r0 + Iinv[1, 1] * r1_ + Iinv[1, 2] * r2_) * 0.5
     h2 = (Iinv[2, 0] * r0 + Iinv[2, 1] * r1_ + Iinv[2, 2] * r2_) * 0.5
-    # G(p)^T (1/2 I'^-1 r1)
-    q0 = -e1 * h0 - e2 * h1 - e3 * h2
-    q1 = e0 * h0 - e3 * h1 + e2 * h2
-    q2 = e3 * h0 + e0 * h1 - e1 * h2
-    q3 = -e2 * h0 + e1 * h1 + e0 * h2
+    q0, q1, q2, q3 = GT_s(e0, e1, e2, e3, h0, h1, h2)  # G(p)^T (1/2 I'^-1 r1)
     pp = e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3
     dy[0] = d0
     dy[1] = d1

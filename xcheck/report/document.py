@@ -14,8 +14,6 @@ import html
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..trajectory import step_label  # noqa: F401  (the report's tables and captions use it from here)
-
 __all__ = ["Heading", "Para", "Verdict", "Cell", "Table", "Figure", "to_markdown", "to_html"]
 
 

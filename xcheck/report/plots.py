@@ -13,7 +13,7 @@ import numpy as np  # noqa: E402
 
 from .. import rotations as rot  # noqa: E402
 from ..runners import RUNNERS  # noqa: E402
-from .document import step_label  # noqa: E402
+from ..trajectory import step_label  # noqa: E402
 
 __all__ = ["render_figures", "scenario_figures", "new_figure", "save_figure"]
 

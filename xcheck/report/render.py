@@ -13,8 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..trajectory import step_label
 from ..versions import machine, versions
-from .document import Cell, Figure, Heading, Para, Table, Verdict, step_label, to_html, to_markdown
+from .document import Cell, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
 from .io import write_json_atomic, write_text_atomic, write_trajectory_csv
 
 __all__ = ["write_report", "draw_figures", "report_document", "StampedFolder", "REPORT_SCHEMA", "verdict_of"]

@@ -16,10 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..history import finest_error
 from ..runners import RUNNERS
 from ..sweep import AXES, SUMMARIES, SweepSpec, flat_params
+from ..trajectory import step_label
 from ..versions import machine, versions
-from .document import Cell, Figure, Heading, Para, Table, Verdict, step_label, to_html, to_markdown
+from .document import Cell, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
 from .io import write_bytes_atomic, write_json_atomic, write_text_atomic
 
 __all__ = ["write_sweep", "sweep_figures", "tidy_rows", "csv_text", "SWEEP_SCHEMA", "ACCURACY"]
@@ -389,9 +391,9 @@ def _method_table(records, methods) -> Table:
             if doc is None:
                 continue
             good += doc["verdict"] in ("pass", "expected", "info")
-            ok = [x for x in doc["runs"] if x["status"] == "ok" and x["attitude_error"] is not None]
-            if ok:
-                finest.append(min(ok, key=lambda x: x["dt"] if x.get("rtol") is None else x["rtol"])["attitude_error"])
+            error = finest_error(doc)
+            if error is not None:
+                finest.append(error)
             if doc["observed_order"] is not None:
                 orders.append(doc["observed_order"])
             within.append(doc["largest_step_within"].get("1e-06"))

@@ -6,7 +6,8 @@ from __future__ import annotations
 import math
 
 from ..history import MIN_TIMED, VERSION_COLUMNS, finest_error
-from .document import Cell, Figure, Heading, Para, Table, step_label
+from ..trajectory import step_label
+from .document import Cell, Figure, Heading, Para, Table
 
 __all__ = ["history_section", "version_table_blocks"]
 
