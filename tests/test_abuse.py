@@ -282,6 +282,28 @@ def test_signal_during_writing_leaves_nothing(tmp_path, sig, code, word):
     assert list(out.iterdir()) == [], (list(out.rglob("*")), err)
 
 
+def test_the_repeated_interrupt_spares_one_on_its_way_out(monkeypatch):
+    """The half-second repeat of a Ctrl-C (for one a ``__del__`` swallowed) raises where the work goes on, and not
+    inside the handling of the first: there it would escape the "interrupted" message and end the process by the
+    signal (exit -2 instead of 130; seen once in CI)."""
+    from xcheck import cli
+
+    monkeypatch.setattr(cli, "_SIGNALLED", [signal.SIGINT])
+    with pytest.raises(KeyboardInterrupt):  # swallowed: the work goes on, so the repeat raises it again
+        cli._on_alarm(signal.SIGALRM, None)
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt:
+        cli._on_alarm(signal.SIGALRM, None)  # on its way out: nothing raised
+    try:
+        try:
+            raise KeyboardInterrupt
+        finally:  # the clean-up of a command unwinding from the first interrupt
+            cli._on_alarm(signal.SIGALRM, None)
+    except KeyboardInterrupt:
+        pass
+
+
 @linux_only
 def test_sigint_while_computing_exits_promptly(tmp_path):
     """Ctrl-C while the workers compute: the parent stops them instead of waiting for their runs."""

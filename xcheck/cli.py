@@ -65,7 +65,10 @@ def _signalled(signum) -> None:
 
 
 def _on_alarm(signum, frame):
-    _raise_if_signalled()
+    # an interrupt already on its way out (its clean-up, its message) was not swallowed: raising a second one
+    # there would escape the handler that says "interrupted" and end the process by the signal (exit -2)
+    if not isinstance(sys.exc_info()[1], KeyboardInterrupt):
+        _raise_if_signalled()
 
 
 def _raise_if_signalled() -> None:
@@ -815,6 +818,8 @@ def _run(args) -> int:
         print(f"xcheck: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt as exc:
+        if hasattr(signal, "setitimer"):
+            signal.setitimer(signal.ITIMER_REAL, 0)
         written = getattr(args, "written", None)
         what = f"the report {written} is complete" if written else "no report was written"
         print(f"\nxcheck: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}; {what}", file=sys.stderr)
