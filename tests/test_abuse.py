@@ -282,6 +282,37 @@ def test_signal_during_writing_leaves_nothing(tmp_path, sig, code, word):
     assert list(out.iterdir()) == [], (list(out.rglob("*")), err)
 
 
+@linux_only
+@pytest.mark.parametrize("command", [["nightly", "--quick"], ["report", "--quick"]])
+@pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
+def test_a_signal_in_the_first_second_is_reported_in_one_line(tmp_path, command, sig, code, word):
+    """Issue 24, item 10: Ctrl-C or SIGTERM while the command still imports (from 0.15 s on: before that it is
+    Python's own start) is reported like one during the work: one line, exit 130/143, no traceback."""
+    for k, delay in enumerate((0.15, 0.3, 0.6, 1.0)):
+        out = tmp_path / f"r{k}"
+        proc = subprocess.Popen([sys.executable, "-m", "xcheck", *command, "--out", str(out),
+                                 "gyroscope-nonsingular"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                start_new_session=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        time.sleep(delay)
+        os.killpg(proc.pid, sig)
+        _, err = proc.communicate(timeout=30)
+        assert proc.returncode == code and f"xcheck: {word}" in err and "Traceback" not in err, (delay, err)
+        assert not out.exists() or not any(out.rglob("index.html")), delay
+
+
+def test_an_interrupt_inside_a_string_exec_still_exits_130(tmp_path):
+    """A Ctrl-C that lands while a module imports often lands in a string ``exec`` (dataclasses make their methods
+    so): CPython then ends ``python -m`` by the signal after xcheck has handled it (exit -2, seen at 0.5 s into a
+    report). The command here raises it there deterministically."""
+    (tmp_path / "interrupted_in_exec.py").write_text(
+        "import sys\nfrom xcheck import cli\n"
+        "cli._cmd_converge = lambda args: exec('raise KeyboardInterrupt', {})\n"
+        "sys.exit(cli.main(sys.argv[1:]))\n")
+    proc = subprocess.run([sys.executable, "-m", "interrupted_in_exec", "converge", "gyroscope-nonsingular"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 130 and proc.stderr == "\nxcheck: interrupted; no report was written\n", proc.stderr
+
+
 def test_the_repeated_interrupt_spares_one_on_its_way_out(monkeypatch):
     """The half-second repeat of a Ctrl-C (for one a ``__del__`` swallowed) raises where the work goes on, and not
     inside the handling of the first: there it would escape the "interrupted" message and end the process by the

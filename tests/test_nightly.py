@@ -109,13 +109,151 @@ def test_a_bad_history_exits_2_before_any_work_and_is_left_untouched(tmp_path, m
     assert _files(tmp_path) == before  # no report written either: the history is checked first
 
 
+def _history_with_rows(path: Path, rows: int = 20000) -> None:
+    """A history with one run and enough metrics to fill many pages (the nightly's would)."""
+    H.open_history(path).close()
+    con = sqlite3.connect(path)
+    con.execute("INSERT INTO runs (started, finished, passed) VALUES ('s', 'f', 1)")
+    con.executemany("INSERT INTO metrics VALUES (1, 'sc', 'm', ?, 'attitude_error', ?)",
+                    [(k * 1e-3, float(k)) for k in range(rows)])
+    con.commit()
+    con.close()
+
+
+def _overwrite_page(path: Path, which: str) -> None:
+    """Bytes over one page: ``middle`` (a page of the metrics table) or ``last`` (an index's)."""
+    size = sqlite3.connect(path).execute("PRAGMA page_size").fetchone()[0]
+    pages = path.stat().st_size // size
+    with open(path, "r+b") as f:
+        f.seek((pages // 2 if which == "middle" else pages - 1) * size)
+        f.write(bytes(range(256)) * (size // 256))
+
+
+def _sql(statement):
+    def make(path):
+        _history_with_rows(path, rows=10)
+        con = sqlite3.connect(path)
+        con.execute(statement)
+        con.commit()
+        con.close()
+    return make
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda p: (_history_with_rows(p), _overwrite_page(p, "middle")), "damaged"),
+    (lambda p: (_history_with_rows(p), _overwrite_page(p, "last")), "damaged"),
+    (_sql("UPDATE xcheck_meta SET value = 'abc' WHERE key = 'schema_version'"),
+     "damaged: its schema_version 'abc' is not a number"),
+    (_sql("DROP TABLE runs"), "damaged: an xcheck history without its runs table"),
+    (_sql("DROP TABLE metrics"), "damaged: an xcheck history without its metrics table"),
+], ids=["a page of metrics", "an index page", "schema_version", "no runs", "no metrics"])
+def test_a_damaged_history_exits_2_before_any_work_and_is_left_untouched(tmp_path, make, words):
+    """Issue 24, item 5: refused before the run (no report folder), exit 2, the file untouched."""
+    history = tmp_path / "h.sqlite"
+    make(history)
+    scenario = _scenario_copy(tmp_path)
+    before = _files(tmp_path)
+    proc = _nightly(scenario, "--out", tmp_path / "reports", "--history", history)
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert proc.stderr.startswith(f"xcheck: error: {history}: ") and words in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert _files(tmp_path) == before
+
+
+def _drop_permission_override() -> None:
+    """Clear CAP_DAC_OVERRIDE and CAP_DAC_READ_SEARCH from this process (Linux ``capset``): root then meets file
+    permissions as their owner does, and reads everything it owns (Python's own folders included)."""
+    import ctypes
+
+    class Header(ctypes.Structure):
+        _fields_ = [("version", ctypes.c_uint32), ("pid", ctypes.c_int)]
+
+    class Data(ctypes.Structure):
+        _fields_ = [("effective", ctypes.c_uint32), ("permitted", ctypes.c_uint32), ("inheritable", ctypes.c_uint32)]
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    header, data = Header(0x20080522, 0), (Data * 2)()  # _LINUX_CAPABILITY_VERSION_3
+    if libc.capget(ctypes.byref(header), data) != 0:
+        raise OSError(ctypes.get_errno(), "capget")
+    mask = ~((1 << 1) | (1 << 2)) & 0xFFFFFFFF  # CAP_DAC_OVERRIDE, CAP_DAC_READ_SEARCH
+    data[0].effective &= mask
+    data[0].permitted &= mask
+    if libc.capset(ctypes.byref(header), data) != 0:
+        raise OSError(ctypes.get_errno(), "capset")
+
+
+def _as_a_user(fn):
+    """``fn()`` where file permissions bind: here, or for root in a child process that has given up its power to
+    override them. Returns (exit code, what it wrote to stderr)."""
+    import io
+    from contextlib import redirect_stderr
+
+    if os.geteuid() != 0:
+        err = io.StringIO()
+        with redirect_stderr(err):
+            code = fn()
+        return code, err.getvalue()
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns into pytest
+        code = 99
+        try:
+            os.close(read)
+            _drop_permission_override()
+            err = io.StringIO()
+            with redirect_stderr(err):
+                code = fn()
+            os.write(write, err.getvalue().encode())
+        except BaseException:
+            import traceback
+
+            os.write(write, traceback.format_exc().encode())
+        finally:
+            os._exit(code if isinstance(code, int) else 98)
+    os.close(write)
+    with os.fdopen(read) as f:
+        text = f.read()
+    _, status = os.waitpid(pid, 0)
+    return os.waitstatus_to_exitcode(status), text
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="drops root's file-permission override (Linux)")
+@pytest.mark.parametrize("file_mode, folder_mode, words", [
+    (0o444, 0o755, "h.sqlite: it cannot be written (Permission denied)"),
+    (0o644, 0o555, "its folder"),
+    (None, 0o555, "its folder"),
+], ids=["read-only file", "read-only folder", "new file in a read-only folder"])
+def test_a_history_that_cannot_be_written_exits_2_before_any_work(tmp_path, file_mode, folder_mode, words):
+    """Issue 24, item 1: found before the work (no report, ``latest`` not moved), not after it."""
+    from xcheck.cli import main
+
+    folder, out = tmp_path / "history", tmp_path / "reports"
+    folder.mkdir()
+    out.mkdir()
+    history = folder / "h.sqlite"
+    if file_mode is not None:
+        _history_with_rows(history, rows=10)
+        os.chmod(history, file_mode)
+    os.chmod(folder, folder_mode)
+    before = _files(folder)
+    try:
+        code, err = _as_a_user(lambda: main(["nightly", "--quick", "--workers", "1", SCENARIO, "--out", str(out),
+                                             "--history", str(history)]))
+    finally:
+        os.chmod(folder, 0o755)
+    assert code == 2, err
+    assert err.startswith(f"xcheck: error: {history}: ") and words in err and "cannot be written" in err, err
+    assert list(out.iterdir()) == [] and _files(folder) == before
+
+
 def test_bad_arguments_exit_2_naming_them(tmp_path):
     cases = [(["--keep", "0"], "--keep: expected a positive number"),
              (["--baseline", "3"], "--baseline 3: the history"),
              (["--mujoco", "4.x"], "--mujoco: '4.x' is not a release number"),
              (["--speed-drop", "1.5"], "--speed-drop: expected a positive number at most 1, got 1.5"),
              (["--error-factor", "-1"], "--error-factor: expected a positive number, got -1.0"),
-             (["--history", tmp_path / "missing" / "h.sqlite"], "does not exist")]
+             (["--history", tmp_path / "missing" / "h.sqlite"], "does not exist"),
+             (["--history", ""], "--history: expected a SQLite file or a postgresql:// URL, got an empty string")]
     for extra, words in cases:
         proc = _nightly(_scenario_copy(tmp_path), "--out", tmp_path / "r", *extra)
         assert proc.returncode == 2 and words in proc.stderr, (extra, proc.stderr)

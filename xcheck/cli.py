@@ -456,6 +456,8 @@ def _cmd_nightly(args) -> int:
             raise UsageError(str(exc)) from None
     args.resolved = _resolve_scenarios(args.scenarios)
     check_output_dir(args.out, "--out")
+    if args.history is not None and not args.history.strip():
+        raise UsageError("--history: expected a SQLite file or a postgresql:// URL, got an empty string")
     location = args.history or nightly.default_history(args.out)
     nightly.check_history(location, args.baseline)
     host, commit = nightly.host_name(), nightly.git_commit()
@@ -753,32 +755,46 @@ def main(argv: list[str] | None = None) -> int:
     # a Python subprocess of its own (80 ms a process; and a worker stopped while it imported left that probe
     # printing a BrokenPipeError). Inherited by the workers; a MUJOCO_GL of the user's is kept.
     os.environ.setdefault("MUJOCO_GL", "disable")
-    parser = build_parser()
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # argparse's own usage errors (exit 2, message printed), --help, --version
-        return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
-    if not hasattr(args, "func"):
-        parser.print_help()
-        return EXIT_BAD_INPUT
-    if getattr(args, "workers", None) is not None and args.workers < 1:
-        print("xcheck: error: --workers: expected a positive number of processes", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    warnings.filterwarnings("ignore", category=UserWarning, module=r"xcheck\.models")
     previous = None
     _SIGNALLED.clear()  # a command run again in the same process (the tests) starts uninterrupted
-    if threading.current_thread() is threading.main_thread():
+    if threading.current_thread() is threading.main_thread():  # first: a signal from now on is ours to report
         previous = [(sig, signal.signal(sig, handler)) for sig, handler in
                     ((signal.SIGTERM, _on_sigterm), (signal.SIGINT, _on_sigint),
                      *(((signal.SIGALRM, _on_alarm),) if hasattr(signal, "SIGALRM") else ()))]
     try:
+        try:
+            args = build_parser().parse_args(argv)
+        except SystemExit as exc:  # argparse's own usage errors (exit 2, message printed), --help, --version
+            return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
+        if not hasattr(args, "func"):
+            build_parser().print_help()
+            return EXIT_BAD_INPUT
+        if getattr(args, "workers", None) is not None and args.workers < 1:
+            print("xcheck: error: --workers: expected a positive number of processes", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        warnings.filterwarnings("ignore", category=UserWarning, module=r"xcheck\.models")
         return _run(args)
+    except KeyboardInterrupt as exc:  # before a command started (its own interrupts are reported by _run)
+        return _interrupted(exc, None)
     finally:
         if previous is not None:
             if hasattr(signal, "setitimer"):
                 signal.setitimer(signal.ITIMER_REAL, 0)
             for sig, handler in previous:
                 signal.signal(sig, handler)
+
+
+def _interrupted(exc: KeyboardInterrupt, written) -> int:
+    """Ctrl-C or SIGTERM, reported in one line: exit 130 or 143."""
+    if hasattr(signal, "setitimer"):
+        signal.setitimer(signal.ITIMER_REAL, 0)
+    # CPython marks an interrupt that leaves a string ``exec`` (a dataclass being made while a module imports)
+    # "unhandled" even once it is caught, and ``python -m xcheck`` then ends by the signal (-2), not with 130.
+    # Every string exec clears that mark as it starts.
+    exec("pass", {})
+    what = f"the report {written} is complete" if written else "no report was written"
+    print(f"\nxcheck: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}; {what}", file=sys.stderr)
+    return EXIT_TERMINATED if isinstance(exc, Terminated) else EXIT_INTERRUPTED
 
 
 #: The errors a user can cause, by the module that raises them (imported only by the commands that use them).
@@ -794,7 +810,7 @@ def _user_errors() -> tuple:
 
 def _run(args) -> int:
     """``args.func(args)`` with every failure a user can cause turned into a message and an exit code."""
-    from concurrent.futures.process import BrokenProcessPool
+    from concurrent.futures.process import BrokenProcessPool  # an interrupt here is main's to report
 
     try:
         try:
@@ -818,12 +834,7 @@ def _run(args) -> int:
         print(f"xcheck: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt as exc:
-        if hasattr(signal, "setitimer"):
-            signal.setitimer(signal.ITIMER_REAL, 0)
-        written = getattr(args, "written", None)
-        what = f"the report {written} is complete" if written else "no report was written"
-        print(f"\nxcheck: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}; {what}", file=sys.stderr)
-        return EXIT_TERMINATED if isinstance(exc, Terminated) else EXIT_INTERRUPTED
+        return _interrupted(exc, getattr(args, "written", None))
     except BrokenPipeError:  # output piped into a reader that stopped (| head): stop quietly
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK

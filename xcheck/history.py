@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 import sqlite3
 import statistics
+import tempfile
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -121,6 +122,26 @@ class _SQLite:
     def begin(self, con) -> None:
         con.execute("BEGIN IMMEDIATE")  # the write lock now: two writers queue instead of deadlocking
 
+    def check_writable(self, con) -> None:
+        """Tried, not inferred from permission bits (root ignores them; a read-only mount does not): the file
+        opens for writing, and its folder takes a new file (SQLite's journal, written beside it)."""
+        try:
+            if self.path.exists():
+                with open(self.path, "r+b"):
+                    pass
+            with tempfile.NamedTemporaryFile(dir=self.path.parent, prefix=f".{self.path.name}-write-check-"):
+                pass
+        except OSError as exc:
+            what = "it" if exc.filename == str(self.path) else f"its folder {self.path.parent}"
+            raise HistoryError(f"{self.where}: {what} cannot be written ({exc.strerror or exc}); SQLite writes the "
+                               "file and a journal beside it: give a writable --history") from None
+
+    def check_intact(self, con) -> None:
+        rows = [r[0] for r in con.execute("PRAGMA quick_check").fetchall()]
+        if rows != ["ok"]:
+            raise HistoryError(f"{self.where}: damaged (SQLite's integrity check: {'; '.join(rows[:3])}); restore "
+                               "it from a copy or give another --history")
+
     @staticmethod
     def sql(statement: str) -> str:
         return statement
@@ -160,6 +181,21 @@ class _Postgres:
         con.execute("BEGIN")
         con.execute("SELECT pg_advisory_xact_lock(7207315)")  # one writer at a time, as with SQLite
 
+    def check_writable(self, con) -> None:
+        tables = self.tables(con) & {"runs", "metrics", "sweep_cells"}
+        if tables:
+            refused = [t for t in sorted(tables)
+                       if not con.execute("SELECT has_table_privilege(%s, 'INSERT')", (t,)).fetchone()[0]]
+        else:
+            refused = [] if con.execute("SELECT has_schema_privilege(current_schema(), 'CREATE')").fetchone()[0] \
+                else ["the schema (CREATE)"]
+        if refused:
+            raise HistoryError(f"{self.where}: cannot be written (this user may not insert into "
+                               f"{', '.join(refused)}): give a writable --history")
+
+    def check_intact(self, con) -> None:  # the server keeps its pages; a damaged one reports as it reads
+        pass
+
     @staticmethod
     def sql(statement: str) -> str:
         return statement.replace("?", "%s")
@@ -183,7 +219,15 @@ def _refuse_foreign(db, con) -> bool:
     meta = dict(con.execute("SELECT key, value FROM xcheck_meta").fetchall())
     if meta.get("application") != APPLICATION:
         raise HistoryError(f"{db.where}: not an xcheck history (application {meta.get('application')!r})")
-    version = int(meta.get("schema_version", "0"))
+    try:
+        version = int(meta.get("schema_version", "0"))
+    except ValueError:
+        raise HistoryError(f"{db.where}: damaged: its schema_version {meta.get('schema_version')!r} is not a "
+                           "number") from None
+    missing = [t for t in ("runs", "metrics") if t not in tables]
+    if missing:
+        raise HistoryError(f"{db.where}: damaged: an xcheck history without its {' and '.join(missing)} "
+                           f"table{'s' * (len(missing) > 1)}")
     if version > SCHEMA_VERSION:
         raise HistoryError(f"{db.where}: written by a newer xcheck (history schema {version}; this release reads up "
                            f"to {SCHEMA_VERSION}); upgrade xcheck or give another --history")
@@ -224,6 +268,19 @@ class History:
                 self._execute("INSERT INTO xcheck_meta VALUES (?, ?) ON CONFLICT (key) DO NOTHING", (key, value))
             # schema 1 -> 2: the sweep_cells table, created above
             self._execute("UPDATE xcheck_meta SET value = ? WHERE key = 'schema_version'", (str(SCHEMA_VERSION),))
+
+    def check(self) -> None:
+        """Before any work that will be recorded: every page can be read and the history can be written
+        (:class:`HistoryError` otherwise; nothing is written)."""
+        try:
+            self.db.check_intact(self.con)
+            if not self.empty:
+                for table in ("runs", "metrics"):
+                    self._execute(f"SELECT * FROM {table}").fetchall()  # a value SQLite cannot decode, too
+        except self.db.errors as exc:
+            raise HistoryError(f"{self.where}: damaged, it cannot be read ({exc}); restore it from a copy or give "
+                               "another --history") from None
+        self.db.check_writable(self.con)
 
     def _execute(self, statement, params=()):
         return self.con.execute(self.db.sql(statement), params)
@@ -319,6 +376,12 @@ def run_row(results: dict, *, started: str, finished: str, git_commit=None, host
             **{k: versions.get(k) for k in VERSION_COLUMNS},
             "host": host, "cpus": results.get("machine", {}).get("cpus"), "passed": int(bool(results["passed"])),
             "report": report, "quick": int(bool(results.get("quick"))), "environment": environment}
+
+
+def check_new(location) -> None:
+    """A SQLite history that does not exist yet: its folder exists and takes the new file and SQLite's journal
+    (:class:`HistoryError` otherwise; nothing is left behind)."""
+    _SQLite(Path(location)).check_writable(None)
 
 
 def open_history(location, *, read_only: bool = False) -> History:

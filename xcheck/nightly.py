@@ -48,15 +48,15 @@ def git_commit() -> str | None:
 
 
 def check_history(location, baseline: int | None = None) -> None:
-    """Before any work: the history can be used (an existing one is read, nothing written) and ``--baseline``
-    names one of its runs. :class:`~xcheck.history.HistoryError` otherwise."""
+    """Before any work: the history can be used (an existing one is read whole and found writable, nothing
+    written) and ``--baseline`` names one of its runs. :class:`~xcheck.history.HistoryError` otherwise."""
     if not H.is_url(location) and not Path(location).exists():
-        if not Path(location).parent.is_dir():
-            raise H.HistoryError(f"{location}: its folder {Path(location).parent} does not exist")
+        H.check_new(location)
         if baseline is not None:
             raise H.HistoryError(f"--baseline {baseline}: the history {location} does not exist yet")
         return
     with H.open_history(location, read_only=True) as hist:
+        hist.check()
         ids = [r["id"] for r in hist.runs()]
         if baseline is not None and baseline not in ids:
             raise H.HistoryError(f"--baseline {baseline}: no such run in {hist.where} (runs "
