@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import sqlite3
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -157,6 +158,72 @@ def test_resume_after_an_interruption_does_not_redo_finished_cells(tmp_path, mon
     calls.clear()
     again = R.run_sweep(spec, tmp_path / "out", jobs=1, resume=True, say=lambda s: None)
     assert calls == [] and again.reused == 6
+
+
+def _interrupted_sweep(tmp_path):
+    """A sweep interrupted after its first chunk: (spec path, the partial log, its bytes)."""
+    path = _spec(tmp_path)
+
+    def interrupt(done, total, label):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        R.run_sweep(S.load_sweep(path), tmp_path / "out", jobs=1, progress=interrupt, say=lambda s: None)
+    log = tmp_path / "out" / "small" / R.PARTIAL_LOG
+    return path, log, log.read_bytes()
+
+
+def test_a_refused_run_keeps_an_interrupted_sweeps_cells(tmp_path, capsys):
+    """Issue 24, item 3: a run refused as its executor starts (a scheduler nobody answers at) discards nothing and
+    says nothing of starting over; --resume then reruns only the cells not finished."""
+    path, log, before = _interrupted_sweep(tmp_path)
+    assert main(["sweep", str(path), "--out", str(tmp_path / "out"), "--executor", "dask",
+                 "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    out = capsys.readouterr()
+    assert "starting over" not in out.out + out.err and log.read_bytes() == before
+    assert main(["sweep", str(path), "--out", str(tmp_path / "out"), "--resume", "--jobs", "1"]) == 0
+    kept = len(before.decode().splitlines()) - 1
+    assert f"--resume: {kept} of 6 cells already done; running {6 - kept}" in capsys.readouterr().out
+
+
+def _record_line(log: Path) -> dict:
+    return json.loads(log.read_text().splitlines()[1])
+
+
+@pytest.mark.parametrize("damage, words", [
+    (lambda log: log.write_bytes(bytes(range(256)) * 8), "not an xcheck sweep log (not UTF-8 text)"),
+    (lambda log: log.write_text("[1, 2]\n"), "not an xcheck sweep log (its first line is not the header"),
+    (lambda log: log.write_text(log.read_text() + "{}\n"), "not a cell's record (no 'id')"),
+    (lambda log: log.write_text(log.read_text() + "42\n"), "not a cell's record (a JSON int, not an object)"),
+    (lambda log: log.write_text(log.read_text() + "not json\n" + log.read_text().splitlines()[1] + "\n"),
+     "not JSON"),
+    (lambda log: log.write_text(log.read_text() + json.dumps(
+        {k: v for k, v in _record_line(log).items() if k != "methods"}) + "\n"), "not a cell's record (no 'methods')"),
+    (lambda log: log.write_text(log.read_text() + json.dumps(
+        {**_record_line(log), "params": {"rate_scale": 7.0}}) + "\n"), "is not the digest of its params"),
+    (lambda log: log.write_text(log.read_text().replace('"attitude_error": ', '"attitude_error": "x", "_": ', 1)),
+     "attitude_error is 'x', not a number"),
+], ids=["random bytes", "a list header", "{}", "42", "a bad line inside", "no methods", "foreign params",
+        "a string for a number"])
+def test_a_damaged_resume_log_is_refused_before_any_work(tmp_path, capsys, damage, words):
+    """Issue 24, item 5: exit 2 before any cell runs, naming the file (and the line), the file untouched."""
+    path, log, _ = _interrupted_sweep(tmp_path)
+    damage(log)
+    before = log.read_bytes()
+    assert main(["sweep", str(path), "--out", str(tmp_path / "out"), "--resume", "--jobs", "1"]) == 2
+    err = capsys.readouterr().err
+    assert f"xcheck: error: {log}" in err and words in err, err
+    assert log.read_bytes() == before and not list((tmp_path / "out" / "small").glob("2*"))
+
+
+def test_jobs_beyond_the_cpus_are_capped(tmp_path, capsys):
+    """Issue 24, item 2: --jobs 1000 on a 6-cell sweep starts no more workers than CPUs, and says so."""
+    import os
+
+    assert main(["sweep", str(_spec(tmp_path)), "--out", str(tmp_path / "out"), "--jobs", "1000"]) == 0
+    cpus = os.cpu_count()
+    out = capsys.readouterr().out
+    assert f"note: --jobs 1000: {cpus} worker processes, one per CPU" in out and f"on {cpus} process" in out
 
 
 def test_resume_refuses_a_log_of_other_methods(tmp_path):

@@ -110,6 +110,25 @@ def test_random_attitudes_are_uniform_on_so3():
     ('base = "rax1-orbit-field"\n[axes]', "axes: no axis"),
     ('base = "rax1-orbit-field"\nmethods = ["rk5"]\n[axes.dt]\nvalues = [0.1]', "methods: unknown method 'rk5'"),
     ('base = "rax1-orbit-field"\n[axes.dipole_scale]\nvalues = [1.0', "not valid TOML"),
+    # issue 24, item 2: sizes counted from the spec, before anything is built
+    ('base = "gyroscope-nonsingular"\n[axes.rate_scale]\nrange = [0.5, 2]\nnum = 1000\n[axes.inertia_scale]\n'
+     'range = [0.5, 2]\nnum = 1000\n[axes.attitude]\nrandom = "so3"\ncount = 1000',
+     "axes: 1,000,000,000 cells (rate_scale 1,000 x inertia_scale 1,000 x attitude 1,000), more than the limit "
+     "of 100,000: give --max-cells 1000000000"),
+    ('base = "gyroscope-nonsingular"\n[axes.rate_scale]\nrange = [0.5, 2]\nnum = 1000000000',
+     "axes: 1,000,000,000 cells (rate_scale 1,000,000,000)"),
+    ('base = "gyroscope-nonsingular"\ncombine = "sample"\nsamples = 1000000000\n[axes.rate_scale]\n'
+     'range = [0.5, 2]', "samples: 1,000,000,000 cells (samples = 1,000,000,000)"),
+    ('base = "gyroscope-nonsingular"\n[axes.dt]\nrange = [0.001, 0.01]\nnum = 1000000000', "dt 1,000,000,000"),
+    # issue 24, item 6: every value a spec can produce, checked before the first cell
+    ('base = "gyroscope-nonsingular"\n[axes.rate_direction]\nvalues = [[0, 0, 0]]',
+     "[axes.rate_direction] [0.0, 0.0, 0.0] is no direction"),
+    ('base = "rax1-orbit-field"\ncombine = "sample"\nsamples = 50\n[axes."field.altitude_km"]\nmean = 100.0\n'
+     'std = 200.0', "[axes.field.altitude_km] -"),
+    ('base = "rax1-orbit-field"\n[axes.dipole]\nvalues = [[1e30, 0, 1]]', "dipole: |m| = 1e+30 A m^2, beyond"),
+    ('base = "rax1-orbit-field"\n[axes.dipole_scale]\nrange = [1, 1e30]\nnum = 3', "beyond the 1e+04 A m^2"),
+    ('base = "rax1-orbit-field"\nseed = -1\n[axes.dipole_scale]\nvalues = [1.0]',
+     "seed: expected a non-negative integer, got -1"),
 ])
 def test_a_bad_spec_is_refused_naming_file_and_key(tmp_path, text, words):
     path = _spec(tmp_path, text)
@@ -124,3 +143,10 @@ def test_the_base_may_be_a_scenario_file_beside_the_spec(tmp_path):
     (tmp_path / "mine.toml").write_text(scenario)
     spec = S.load_sweep(_spec(tmp_path, 'base = "mine.toml"\n[axes.rate_scale]\nvalues = [1.0, 2.0]'))
     assert spec.base.path == tmp_path / "mine.toml" and len(spec.cells) == 2
+
+
+def test_the_cell_limit_is_lifted_by_max_cells(tmp_path):
+    path = _spec(tmp_path, 'base = "gyroscope-nonsingular"\n[axes.rate_scale]\nrange = [0.5, 2]\nnum = 7')
+    with pytest.raises(S.SweepError, match="7 cells .* more than the limit of 6: give --max-cells 7"):
+        S.load_sweep(path, max_cells=6)
+    assert len(S.load_sweep(path, max_cells=7).cells) == 7

@@ -560,9 +560,14 @@ def _cmd_sweep(args) -> int:
         raise UsageError(f"--jobs: expected a positive number of processes, got {args.jobs}")
     if args.scheduler and args.executor != "dask":
         raise UsageError("--scheduler: only with --executor dask")
-    spec = resolve_sweep(args.spec)
+    if args.max_cells is not None and args.max_cells < 1:
+        raise UsageError(f"--max-cells: expected a positive number of cells, got {args.max_cells}")
+    spec = resolve_sweep(args.spec, **({} if args.max_cells is None else {"max_cells": args.max_cells}))
     check_output_dir(args.out, "--out")
-    jobs = args.jobs or os.cpu_count() or 1
+    cpus = os.cpu_count() or 1
+    jobs = min(args.jobs or cpus, cpus)
+    if args.jobs and args.jobs > jobs:
+        print(f"note: --jobs {args.jobs}: {jobs} worker processes, one per CPU (more would only share them)")
     n = len(spec.cells)
     print(f"sweep {spec.path.stem}: {n} cell{'s' * (n != 1)} x {len(spec.steps)} steps, base {spec.base.name}, on "
           f"{'a Dask cluster' if args.executor == 'dask' else f'{jobs} process' + 'es' * (jobs > 1)}")
@@ -727,6 +732,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--jobs", type=int, default=None, metavar="N", help="worker processes (default: CPU count)")
     p.add_argument("--resume", action="store_true",
                    help="keep the cells an interrupted (or the latest) run of this spec finished; run the rest")
+    p.add_argument("--max-cells", type=int, default=None, metavar="N",
+                   help="refuse a spec of more cells than this, before building any (default 100,000: "
+                        "xcheck.sweep.MAX_CELLS)")
     p.add_argument("--executor", choices=("local", "dask"), default="local",
                    help="local processes, or a Dask distributed cluster (pip install 'xcheck[distributed]')")
     p.add_argument("--scheduler", metavar="ADDRESS",

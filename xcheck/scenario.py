@@ -401,6 +401,10 @@ def _read_torque(tq: _Reader) -> dict:
     return out
 
 
+#: The largest magnetic dipole [A m^2] a scenario or a sweep's cell may give a body.
+MAX_DIPOLE = 1e4
+
+
 def build_torque(scenario: Scenario, body):
     """The :class:`~xcheck.fields.TorqueModel` of a scenario (None when torque free)."""
     from . import fields
@@ -414,6 +418,10 @@ def build_torque(scenario: Scenario, body):
     if not np.any(dipole):
         raise ValueError(f"magnetic torque needs a dipole: none in {body.path} (<custom><numeric "
                          f"name=\"xcheck_dipole\">) and no 'dipole' key")
+    if not np.linalg.norm(dipole) <= MAX_DIPOLE:  # NaN too
+        raise ValueError(f"dipole: |m| = {np.linalg.norm(dipole):.3g} A m^2, beyond the {MAX_DIPOLE:.0e} A m^2 this "
+                         "checks (the largest magnetorquers flown are ~1e3 A m^2; beyond, the reference spends its "
+                         "whole budget on a body spun up past any rigid body's rates)")
     field = fields.FIELDS[spec["field"]]
     values = {key: spec[key] for key in field.keys if key in spec}
     torque = fields.MagneticTorque(dipole, field.from_keys(values, duration=scenario.duration))

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import zlib
 from dataclasses import dataclass, field
 from itertools import product
@@ -53,7 +54,7 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-__all__ = ["SweepError", "SweepSpec", "Axis", "load_sweep", "resolve_sweep", "bundled_sweeps", "apply_cell", "flat_params", "AXES", "random_quaternions",
+__all__ = ["MAX_CELLS", "SweepError", "SweepSpec", "Axis", "load_sweep", "resolve_sweep", "bundled_sweeps", "apply_cell", "flat_params", "AXES", "random_quaternions",
            "random_directions"]
 
 
@@ -174,18 +175,24 @@ def bundled_sweeps() -> dict[str, Path]:
     return {p.stem: p for p in sorted((BUNDLED_MODELS / "sweeps").glob("*.toml"))}
 
 
-def resolve_sweep(name_or_path) -> SweepSpec:
-    """A bundled sweep by name, or a sweep spec by path."""
+#: The largest sweep read without a larger ``max_cells`` (``xcheck sweep --max-cells``): a day of cells on a
+#: laptop; a spec whose size is a slip (three axes of ``num = 1000``) is refused before it allocates anything.
+MAX_CELLS = 100_000
+
+
+def resolve_sweep(name_or_path, *, max_cells: int | None = MAX_CELLS) -> SweepSpec:
+    """A bundled sweep by name, or a sweep spec by path (see :func:`load_sweep`)."""
     bundled = bundled_sweeps()
     if str(name_or_path) in bundled and not Path(name_or_path).exists():
-        return load_sweep(bundled[str(name_or_path)])
+        return load_sweep(bundled[str(name_or_path)], max_cells=max_cells)
     if Path(name_or_path).suffix != ".toml" and not Path(name_or_path).exists():
         raise SweepError(f"{name_or_path}: not a bundled sweep ({', '.join(bundled)}) nor a .toml file")
-    return load_sweep(name_or_path)
+    return load_sweep(name_or_path, max_cells=max_cells)
 
 
-def load_sweep(path) -> SweepSpec:
-    """Read and check a sweep spec; its cells are generated (``.cells``: ``{"id", "params"}``)."""
+def load_sweep(path, *, max_cells: int | None = MAX_CELLS) -> SweepSpec:
+    """Read and check a sweep spec; its cells are generated (``.cells``: ``{"id", "params"}``). A spec of more
+    than ``max_cells`` cells (None: no limit) is refused before any cell or axis value is built."""
     path = Path(path)
     try:
         data = tomllib.loads(path.read_bytes().decode("utf-8-sig"))
@@ -197,14 +204,19 @@ def load_sweep(path) -> SweepSpec:
         raise SweepError(f"{path}: not valid TOML: {exc}") from None
     top = _Reader(path, data, "")
     try:
-        return _read(path, top, data)
+        return _read(path, top, data, max_cells)
     except SweepError:
         raise
     except ScenarioError as exc:  # the _Reader's own messages (file and key already in them)
         raise SweepError(str(exc)) from None
 
 
-def _read(path: Path, top: _Reader, data: dict) -> SweepSpec:
+def _sizes(axes: list[Axis]) -> list[int]:
+    """Each axis' number of values in a product, from the spec alone (nothing is built)."""
+    return [a.count if a.random else len(a.values) if a.values is not None else a.num for a in axes]
+
+
+def _read(path: Path, top: _Reader, data: dict, max_cells: int | None = None) -> SweepSpec:
     from .runners import RUNNERS, unknown_method
 
     for key in data:
@@ -220,6 +232,8 @@ def _read(path: Path, top: _Reader, data: dict) -> SweepSpec:
     if combine not in ("product", "sample"):
         top.fail("combine", f"expected 'product' or 'sample', got {combine!r}")
     seed = top.get("seed", "integer", 0)
+    if seed < 0:
+        top.fail("seed", f"expected a non-negative integer, got {seed}")
     samples = None
     if combine == "sample":
         samples = top.get("samples", "integer", required=True)
@@ -237,6 +251,16 @@ def _read(path: Path, top: _Reader, data: dict) -> SweepSpec:
     if not axes_table:
         top.fail("axes", "no axis: a sweep varies at least one")
     axes = [_read_axis(path, name, table, base, combine) for name, table in axes_table.items()]
+    if combine == "sample":
+        size, what = samples, f"samples = {samples:,}"
+    else:  # the product's cells, and any one axis' values (a dt axis is steps, not cells)
+        sizes = _sizes(axes)
+        size = max(math.prod(n for a, n in zip(axes, sizes) if a.name != "dt"), *sizes)
+        what = " x ".join(f"{a.name} {n:,}" for a, n in zip(axes, sizes))
+    if max_cells is not None and size > max_cells:
+        top.fail("samples" if combine == "sample" else "axes",
+                 f"{size:,} cells ({what}), more than the limit of {max_cells:,}: give --max-cells {size} to run "
+                 "it anyway")
     for a in axes:
         _check_axis_against_base(path, a, base, seed)
     steps = base.quick_steps
@@ -253,11 +277,14 @@ def _read(path: Path, top: _Reader, data: dict) -> SweepSpec:
         spec.cells = [_cell(dict(zip((a.name for a in axes), combo))) for combo in product(*grids)]
     else:
         draws = [a.draw(samples, seed) for a in axes]
+        for a, d in zip(axes, draws):  # a distribution's draws are what will run: their extremes are checked too
+            if a.distribution is not None:
+                _check_axis_against_base(path, a, base, seed, probes=[min(d), max(d)])
         spec.cells = [_cell({a.name: d[i] for a, d in zip(axes, draws)}) for i in range(samples)]
     return spec
 
 
-def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int) -> None:
+def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int, probes=None) -> None:
     """Refuse, before anything runs, an axis value the base scenario cannot take: a model xcheck cannot load
     (or without the dipole the base's magnetic torque needs), inertia no rigid body has, a field model without
     a key it requires, a scale of a zero rate, a field parameter its model refuses."""
@@ -277,9 +304,14 @@ def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int) 
         except ValueError as exc:
             refuse(f"{exc} (the base's duration is {base.duration:g} s)")
         return
-    if axis.random or axis.name in ("attitude", "rate", "rate_deg"):
+    if axis.name == "rate_direction":
+        zero = [v for v in axis.values or () if not np.any(v)]
+        if zero:
+            refuse(f"{zero[0]} is no direction: give vectors of non-zero length")
+    if axis.random or axis.name in ("attitude", "rate", "rate_deg", "rate_direction"):
         return  # any unit quaternion and any rate are a state
-    probes = axis.values if axis.values is not None else [v for v in (axis.low, axis.high) if v is not None]
+    if probes is None:
+        probes = axis.values if axis.values is not None else [v for v in (axis.low, axis.high) if v is not None]
     for value in probes:
         if axis.name == "inertia":
             try:

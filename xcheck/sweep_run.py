@@ -21,14 +21,14 @@ import json
 import math
 import os
 import time
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .runners import RUNNERS
-from .sweep import SweepError, SweepSpec, apply_cell
+from .sweep import SweepError, SweepSpec, apply_cell, cell_id
 
 __all__ = ["SweepLog", "plan_chunks", "run_chunk", "run_sweep", "sweep_methods", "fingerprint", "executor", "CHUNK",
            "LOG_SCHEMA"]
@@ -70,24 +70,40 @@ class SweepLog:
 
     def read(self, source: Path | None = None) -> int:
         """The records of an earlier run (``source``, default this log) whose fingerprint matches; a log of
-        another base, methods or steps is a :class:`SweepError`. Returns how many were read."""
+        another base, methods or steps, or one that is damaged (a line that is not a cell's record), is a
+        :class:`SweepError` naming the file and the line, and the file is left as it is. Returns how many were
+        read."""
         source = Path(source or self.path)
-        lines = source.read_text(encoding="utf-8").splitlines()
+        again = "remove it or run without --resume to start over"
+        try:
+            lines = source.read_bytes().decode("utf-8").splitlines()
+        except OSError as exc:
+            raise SweepError(f"{source}: cannot be read ({exc.strerror or exc}); {again}") from None
+        except UnicodeDecodeError:
+            raise SweepError(f"{source}: not an xcheck sweep log (not UTF-8 text); {again}") from None
         try:
             header = json.loads(lines[0]) if lines else {}
         except json.JSONDecodeError:
             header = {}
-        if header.get("schema") != LOG_SCHEMA:
-            raise SweepError(f"{source}: not an xcheck sweep log; remove it or run without --resume")
+        if not isinstance(header, dict) or header.get("schema") != LOG_SCHEMA:
+            raise SweepError(f"{source}: not an xcheck sweep log (its first line is not the header of schema "
+                             f"{LOG_SCHEMA}); {again}")
         if header.get("fingerprint") != self.fingerprint:
             raise SweepError(f"{source}: written for another base scenario, model, methods or steps than the spec "
                              "now names; run without --resume to start over")
-        for line in lines[1:]:
+        records = {}
+        for n, line in enumerate(lines[1:], start=2):
             try:
                 rec = json.loads(line)
-            except json.JSONDecodeError:  # the last line of a killed writer
-                continue
-            self.records[rec["id"]] = rec
+            except json.JSONDecodeError:
+                if n == len(lines):  # the last line of a killed writer
+                    continue
+                raise SweepError(f"{source}, line {n}: not JSON; {again}") from None
+            problem = record_problem(rec)
+            if problem:
+                raise SweepError(f"{source}, line {n}: not a cell's record ({problem}); {again}")
+            records[rec["id"]] = rec
+        self.records.update(records)
         return len(self.records)
 
     def start(self) -> None:
@@ -105,6 +121,43 @@ class SweepLog:
             os.fsync(f.fileno())
         for r in records:
             self.records[r["id"]] = r
+
+
+_NUMBERS = ("dt", "attitude_error", "max_attitude_error", "omega_error", "max_omega_error", "energy_drift",
+            "momentum_drift", "norm_drift", "wall_time", "steps_per_second", "repeats", "evaluations", "rtol")
+
+
+def _number(v) -> bool:
+    return v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
+
+
+def record_problem(rec) -> str | None:
+    """What makes ``rec`` not a cell's record as :func:`_record` writes it (None: nothing): the shape the
+    sweep's tables and figures read, and an id that is its parameters' digest."""
+    if not isinstance(rec, dict):
+        return f"a JSON {type(rec).__name__}, not an object"
+    for key, kind in (("id", str), ("params", dict), ("passed", bool), ("methods", dict), ("checks", list),
+                      ("timings", dict)):
+        if not isinstance(rec.get(key), kind):
+            return f"{key!r} missing or not a {kind.__name__}" if key in rec else f"no {key!r}"
+    if rec["id"] != cell_id(rec["params"]):
+        return f"its id {rec['id']!r} is not the digest of its params"
+    if not rec["methods"]:
+        return "no method results"
+    for name, m in rec["methods"].items():
+        if not isinstance(m, dict) or not isinstance(m.get("runs"), list):
+            return f"method {name!r} without its runs"
+        for r in m["runs"]:
+            if not isinstance(r, dict) or not isinstance(r.get("status"), str):
+                return f"a run of {name!r} without its status"
+            bad = [k for k in _NUMBERS if not _number(r.get(k))]
+            if bad:
+                return f"a run of {name!r}: {bad[0]} is {r[bad[0]]!r}, not a number"
+        if not _number(m.get("observed_order")):
+            return f"method {name!r}: observed_order is {m['observed_order']!r}, not a number"
+    if not all(_number(rec["timings"].get(k)) and k in rec["timings"] for k in ("context", "reference", "compute")):
+        return "timings without numbers for context, reference and compute"
+    return None
 
 
 # ------------------------------------------------------------------------------------------------------
@@ -414,21 +467,22 @@ def run_sweep(spec: SweepSpec, out_root, *, jobs: int = 1, resume: bool = False,
             say(f"--resume: no earlier run of this sweep in {root}; running every cell")
         else:
             log.read(source)
-    elif log.path.exists():
-        say(f"note: an interrupted run left {log.path}; starting over (--resume keeps its finished cells)")
     wanted = {c["id"] for c in spec.cells}
     log.records = {k: v for k, v in log.records.items() if k in wanted}
     reused = len(log.records)
     todo = [c for c in spec.cells if c["id"] not in log.records]
     if resume and log.records:
         say(f"--resume: {reused} of {len(spec.cells)} cells already done; running {len(todo)}")
-    log.start()
     chunks = plan_chunks(spec, todo)
     methods = sweep_methods(spec)
     t_ready = t_end = time.perf_counter()
-    if chunks:
-        with executor(kind, jobs, scheduler) as ex:
-            t_ready = time.perf_counter()
+    # an earlier run's log is cut (or its cells dropped) only once this run is known to start: its executor is up
+    with (executor(kind, min(jobs, max(1, len(chunks))), scheduler) if chunks else nullcontext()) as ex:
+        t_ready = time.perf_counter()
+        if not resume and log.path.exists():
+            say(f"note: an interrupted run left {log.path}; starting over (--resume keeps its finished cells)")
+        log.start()
+        if chunks:
             futures = [ex.submit(run_chunk, ch, methods, tuple(spec.steps)) for ch in chunks]
             done = 0
             for fut in ex.as_completed(futures):

@@ -217,8 +217,12 @@ def _error_by_axis(spec, rows, methods, colors):
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
     handles, labels = axes.flat[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 1 - 0.3 / height), ncol=min(len(labels), 6),
-               fontsize=8, frameon=False, markerscale=1.5)
+    if labels:
+        fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 1 - 0.3 / height),
+                   ncol=min(len(labels), 6), fontsize=8, frameon=False, markerscale=1.5)
+    else:  # every run failed: the tables say why; the figure says that there is nothing to draw
+        axes.flat[0].text(0.5, 0.5, "no run of any method completed", transform=axes.flat[0].transAxes,
+                          ha="center", va="center", fontsize=10)
     fig.suptitle(f"{spec.path.stem}: error against the swept axes at Δt = {step_label(max(spec.steps))} s", fontsize=10)
     return fig
 
