@@ -310,6 +310,55 @@ def test_an_unreachable_scheduler_is_named(tmp_path, capsys):
     assert "tcp://127.0.0.1:9" in capsys.readouterr().err
 
 
+def test_a_scheduler_address_that_is_not_dask_is_named_within_seconds(tmp_path, capsys, monkeypatch):
+    """Issue 24, item 4: a web server at the address accepts the connection and never speaks Dask: refused once
+    SCHEDULER_SECONDS have passed (1 s here), naming the address; a real scheduler passes the same probe."""
+    pytest.importorskip("distributed", reason="the Dask executor needs the optional extra 'distributed'")
+    import threading
+    from http.server import HTTPServer, SimpleHTTPRequestHandler
+
+    from distributed import LocalCluster
+
+    server = HTTPServer(("127.0.0.1", 0), SimpleHTTPRequestHandler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    monkeypatch.setattr(R, "SCHEDULER_SECONDS", 1)
+    address = f"tcp://127.0.0.1:{server.server_address[1]}"
+    try:
+        assert main(["sweep", str(_spec(tmp_path)), "--out", str(tmp_path / "out"), "--executor", "dask",
+                     "--scheduler", address]) == 2
+    finally:
+        server.shutdown()
+    err = capsys.readouterr().err
+    assert f"--scheduler {address}: something answers there, but not a Dask scheduler within 1 s" in err, err
+    with LocalCluster(n_workers=0, processes=False, protocol="tcp", dashboard_address=None) as cluster:
+        R._is_a_scheduler(cluster.scheduler_address)  # nothing raised
+
+
+def test_ctrl_c_in_a_dask_sweep_ends_it_promptly_and_quietly(tmp_path):
+    """Issue 24, item 10: Ctrl-C while the LocalCluster starts (its workers importing) or while its workers
+    compute: exit 130 within seconds, one line, no worker's traceback and no half-built cluster's at exit."""
+    pytest.importorskip("distributed", reason="the Dask executor needs the optional extra 'distributed'")
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    spec = _spec(tmp_path, 'base = "gyroscope-nonsingular"\n[axes.rate_scale]\nrange = [0.5, 2.0]\nnum = 40\n',
+                 "long.toml")
+    for delay in (0.8, 1.2, 1.6, 3.0):
+        proc = subprocess.Popen([sys.executable, "-m", "xcheck", "sweep", str(spec), "--out", str(tmp_path / "out"),
+                                 "--executor", "dask", "--jobs", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                text=True, start_new_session=True,
+                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        time.sleep(delay)
+        os.killpg(proc.pid, signal.SIGINT)
+        t0 = time.monotonic()
+        _, err = proc.communicate(timeout=60)
+        assert proc.returncode == 130 and "Traceback" not in err and "interrupted" in err, (delay, err)
+        assert time.monotonic() - t0 < 5, (delay, time.monotonic() - t0, err)
+
+
 def test_bundled_sweeps_are_valid():
     """The three example sweeps parse, with the cells the issue asks for."""
     from xcheck.models import BUNDLED_MODELS

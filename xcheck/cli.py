@@ -64,6 +64,18 @@ def _signalled(signum) -> None:
         signal.setitimer(signal.ITIMER_REAL, REPEAT_INTERRUPT)
 
 
+def _unraisable(hook):
+    """``sys.unraisablehook`` for the length of a command: an interrupt that lands in an object's ``__del__`` or in
+    a callback from compiled code (llvmlite's object cache, while numba loads) cannot be raised there; it is not
+    printed as "Exception ignored" with its traceback, as it is raised again where the work goes on (see
+    :data:`REPEAT_INTERRUPT`). Anything else goes to ``hook``."""
+    def on_unraisable(unraisable):
+        if isinstance(unraisable.exc_value, KeyboardInterrupt) and _SIGNALLED:
+            return
+        hook(unraisable)
+    return on_unraisable
+
+
 def _on_alarm(signum, frame):
     # an interrupt already on its way out (its clean-up, its message) was not swallowed: raising a second one
     # there would escape the handler that says "interrupted" and end the process by the signal (exit -2)
@@ -769,6 +781,7 @@ def main(argv: list[str] | None = None) -> int:
         previous = [(sig, signal.signal(sig, handler)) for sig, handler in
                     ((signal.SIGTERM, _on_sigterm), (signal.SIGINT, _on_sigint),
                      *(((signal.SIGALRM, _on_alarm),) if hasattr(signal, "SIGALRM") else ()))]
+    previous_hook, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
     try:
         try:
             args = build_parser().parse_args(argv)
@@ -785,6 +798,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt as exc:  # before a command started (its own interrupts are reported by _run)
         return _interrupted(exc, None)
     finally:
+        sys.unraisablehook = previous_hook
         if previous is not None:
             if hasattr(signal, "setitimer"):
                 signal.setitimer(signal.ITIMER_REAL, 0)

@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
 import signal
@@ -71,6 +72,12 @@ def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 2.0) -> None:
         if p.is_alive():
             p.kill()
             p.join(1.0)
+    # the tasks not yet sent sit in the call queue, whose feeder thread may be blocked writing a large one into the
+    # pipe of workers that are gone (this process holds the pipe's other end, so the write never fails): it must
+    # not be waited for at exit (seen once: a nightly alive ten minutes after "interrupted")
+    call_queue = getattr(pool, "_call_queue", None)
+    if call_queue is not None:
+        call_queue.cancel_join_thread()
     # let the executor's own thread see its workers gone and close its pipes now, not at interpreter exit (where it
     # raced atexit's wake-up of it: "OSError: Bad file descriptor")
     thread = getattr(pool, "_executor_manager_thread", None)
@@ -106,6 +113,70 @@ def _start_workers(pool: ProcessPoolExecutor, modules=()) -> None:
     finally:
         if main_thread:
             signal.signal(signal.SIGINT, previous)
+
+
+class _Sigaction(ctypes.Structure):
+    """glibc's ``struct sigaction`` on Linux: handler, mask (1024 bits), flags, restorer."""
+    _fields_ = [("handler", ctypes.c_void_p), ("mask", ctypes.c_ulong * 16), ("flags", ctypes.c_int),
+                ("restorer", ctypes.c_void_p)]
+
+
+def _set_sigint(action: _Sigaction) -> _Sigaction:
+    """Set SIGINT's disposition from any thread (``signal.signal`` is the main thread's only) with glibc's
+    ``sigaction``; returns the previous one, to be given back."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    old = _Sigaction()
+    if libc.sigaction(signal.SIGINT, ctypes.byref(action), ctypes.byref(old)) != 0:
+        raise OSError(ctypes.get_errno(), "sigaction")
+    return old
+
+
+@contextmanager
+def interrupts_deferred():
+    """Ctrl-C and SIGTERM held for the length of a block that must not be cut in the middle (a Dask cluster half
+    built fails its own close at exit): one that comes meanwhile is recorded, and delivered (its handler called:
+    the interrupt raised) as the block ends. Main thread only; elsewhere nothing changes."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list = []
+    previous = {sig: signal.signal(sig, lambda signum, frame: held.append(signum))
+                for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        if held and callable(previous[held[0]]):
+            previous[held[0]](held[0], None)
+
+
+@contextmanager
+def spawned_ignoring_sigint():
+    """For the length of a block, every process multiprocessing spawns (from any thread: a Dask cluster spawns its
+    workers from its event loop's) starts with SIGINT ignored, as :func:`_start_workers` does for ours: a Ctrl-C
+    to the process group then never lands in a worker's imports (a traceback each); this process stops them.
+    SIGINT is ignored here only while each process is forked (milliseconds). Linux (glibc); elsewhere nothing
+    changes."""
+    import multiprocessing.util as mp_util
+
+    if not sys.platform.startswith("linux"):
+        yield
+        return
+    spawn = mp_util.spawnv_passfds
+
+    def ignoring(*args, **kwargs):
+        previous = _set_sigint(_Sigaction(handler=1))  # SIG_IGN
+        try:
+            return spawn(*args, **kwargs)
+        finally:
+            _set_sigint(previous)
+
+    mp_util.spawnv_passfds = ignoring
+    try:
+        yield
+    finally:
+        mp_util.spawnv_passfds = spawn
 
 
 @contextmanager

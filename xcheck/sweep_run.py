@@ -20,8 +20,9 @@ import hashlib
 import json
 import math
 import os
+import signal
 import time
-from contextlib import contextmanager, nullcontext
+from contextlib import ExitStack, contextmanager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -403,9 +404,33 @@ def executor(kind: str = "local", jobs: int = 1, scheduler: str | None = None):
         with client:
             yield _Dask(client, f"the Dask cluster at {scheduler}")
         return
-    with LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+    from .pool import interrupts_deferred, spawned_ignoring_sigint
+
+    with ExitStack() as stack:
+        # built whole (a Ctrl-C meanwhile is raised once it stands, and the stack closes it), its workers ignoring
+        # Ctrl-C themselves: this process closes them
+        with interrupts_deferred(), spawned_ignoring_sigint():
+            cluster = stack.enter_context(LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True,
+                                                       dashboard_address=None, silence_logs=logging.ERROR))
+            client = stack.enter_context(Client(cluster))
+            stack.push(lambda kind, exc, tb: _kill_workers(cluster) if kind is not None else None)
         yield _Dask(client, f"a Dask LocalCluster of {jobs} workers")
+
+
+def _kill_workers(cluster) -> None:
+    """End a LocalCluster's worker processes at once (an interrupted or failed sweep): a worker inside a cell's
+    compiled loop does not answer its nanny's request to close, which then waits seconds before it kills it. Dask's
+    notes of the connections that this closes (with tracebacks, at INFO) are expected, and not printed."""
+    import logging
+
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)
+    for nanny in list(cluster.workers.values()):
+        pid = getattr(nanny, "pid", None)
+        if pid:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except OSError:  # gone already
+                pass
 
 
 def _reachable(address: str) -> None:
@@ -423,9 +448,40 @@ def _reachable(address: str) -> None:
         raise SweepError(f"--scheduler {address}: expected a Dask scheduler address, tcp://host:port")
     if parts.scheme == "tcp":
         try:
-            socket.create_connection((host, port), timeout=10).close()
+            socket.create_connection((host, port), timeout=SCHEDULER_SECONDS).close()
         except OSError as exc:
             raise SweepError(f"--scheduler {address}: no Dask scheduler answers there ({exc.strerror or exc})") from None
+        _is_a_scheduler(address)
+
+
+#: Seconds a ``--scheduler`` has to accept the connection and to answer who it is.
+SCHEDULER_SECONDS = 10
+
+
+def _is_a_scheduler(address: str) -> None:
+    """Ask what listens at ``address`` who it is (Dask's ``identity``), within :data:`SCHEDULER_SECONDS`: something
+    that accepts the connection but does not speak Dask's protocol (a web server) would otherwise keep Dask's
+    client waiting without end (dask/distributed#8071)."""
+    import asyncio
+
+    from distributed.comm import connect
+    from distributed.core import send_recv
+
+    async def identity():
+        comm = await asyncio.wait_for(connect(address, timeout=SCHEDULER_SECONDS), SCHEDULER_SECONDS)
+        try:
+            return await asyncio.wait_for(send_recv(comm, op="identity"), SCHEDULER_SECONDS)
+        finally:
+            comm.abort()
+
+    try:
+        reply = asyncio.run(identity())
+    except (asyncio.TimeoutError, OSError, ValueError, TypeError) as exc:
+        raise SweepError(f"--scheduler {address}: something answers there, but not a Dask scheduler within "
+                         f"{SCHEDULER_SECONDS} s ({type(exc).__name__}{f': {exc}' if str(exc) else ''})") from None
+    if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        what = reply.get("type") if isinstance(reply, dict) else type(reply).__name__
+        raise SweepError(f"--scheduler {address}: a Dask {what}, not a scheduler") from None
 
 
 # ------------------------------------------------------------------------------------------------------
