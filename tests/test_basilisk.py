@@ -237,3 +237,33 @@ def test_the_compiled_held_input_writes_each_row_before_its_step():
     for nanos in (0, 5000):  # no step starts there: the last row stays
         sim.module.UpdateState(nanos)
         assert message.read().torqueRequestBody == table[3].tolist()
+
+
+def _short_scenario(tmp_path):
+    """The bundled gyroscope over 1 µs: steps of nanoseconds are then a short run."""
+    from xcheck.scenario import SCENARIO_DIR
+
+    text = (SCENARIO_DIR / "gyroscope-nonsingular.toml").read_text()
+    text = text.replace('model = "../gyroscope.xml"', f'model = "{(SCENARIO_DIR.parent / "gyroscope.xml").as_posix()}"')
+    text = text.replace("duration = 10.0", "duration = 1e-6")
+    path = tmp_path / "short.toml"
+    path.write_text(text)
+    return path
+
+
+def test_a_step_below_the_clock_is_refused_and_a_rounded_one_is_noted(tmp_path, capsys):
+    """Issue 24, item 11: --dt below 0.5 ns is exit 2 naming --dt (not an internal error); 6e-10 s and 1.5e-9 s
+    run as 1 and 2 ns, and the run says so before it starts."""
+    from xcheck.cli import main
+
+    path = _short_scenario(tmp_path)
+    assert main(["run", str(path), "--method", "basilisk-rk4", "--dt", "4e-10"]) == 2
+    assert "xcheck: error: --dt: 4e-10 s is below Basilisk's clock resolution (1 ns) (basilisk-rk4)" in \
+        capsys.readouterr().err
+    for dt, ns in (("6e-10", 1), ("1.5e-9", 2)):
+        assert main(["run", str(path), "--method", "basilisk-rk4", "--dt", dt]) == 0
+        out = capsys.readouterr().out
+        assert out.startswith(f"note: Basilisk's clock counts whole nanoseconds: the step {float(dt):g} s runs as "
+                              f"{ns} ns"), out
+    assert main(["converge", str(path), "--methods", "basilisk-rk4,lie-rkmk4", "--steps", "1e-9,4e-10"]) == 2
+    assert "--steps: 4e-10 s is below Basilisk's clock resolution" in capsys.readouterr().err

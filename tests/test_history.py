@@ -209,3 +209,14 @@ with H.open_history({str(path)!r}) as hist:
         runs = hist.runs()
         assert len(runs) == 10
         assert len({len(hist.metrics(r["id"])) for r in runs}) == 1
+
+
+@pytest.mark.parametrize("url, shown", [
+    ("postgresql://ann:s3cret@db.example/xc", "postgresql://ann@db.example/xc"),
+    ("postgresql://ann@/xc?host=/tmp&password=s3cret&port=5", "postgresql://ann@/xc?host=/tmp&password=***&port=5"),
+    ("postgres://ann:s3cret@h/xc?password=s3cret", "postgres://ann@h/xc?password=***"),
+])
+def test_a_password_is_never_shown(url, shown):
+    """Issue 24, item 12: in the credentials or in the query, and in a driver's message that repeats it."""
+    assert H.display(url) == shown
+    assert H.scrub("could not connect with password s3cret", url) == "could not connect with password ***"

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+from permissions import as_a_user
+
 from xcheck import history as H
 from xcheck import nightly
 from xcheck.scenario import SCENARIO_DIR
@@ -160,63 +162,6 @@ def test_a_damaged_history_exits_2_before_any_work_and_is_left_untouched(tmp_pat
     assert _files(tmp_path) == before
 
 
-def _drop_permission_override() -> None:
-    """Clear CAP_DAC_OVERRIDE and CAP_DAC_READ_SEARCH from this process (Linux ``capset``): root then meets file
-    permissions as their owner does, and reads everything it owns (Python's own folders included)."""
-    import ctypes
-
-    class Header(ctypes.Structure):
-        _fields_ = [("version", ctypes.c_uint32), ("pid", ctypes.c_int)]
-
-    class Data(ctypes.Structure):
-        _fields_ = [("effective", ctypes.c_uint32), ("permitted", ctypes.c_uint32), ("inheritable", ctypes.c_uint32)]
-
-    libc = ctypes.CDLL(None, use_errno=True)
-    header, data = Header(0x20080522, 0), (Data * 2)()  # _LINUX_CAPABILITY_VERSION_3
-    if libc.capget(ctypes.byref(header), data) != 0:
-        raise OSError(ctypes.get_errno(), "capget")
-    mask = ~((1 << 1) | (1 << 2)) & 0xFFFFFFFF  # CAP_DAC_OVERRIDE, CAP_DAC_READ_SEARCH
-    data[0].effective &= mask
-    data[0].permitted &= mask
-    if libc.capset(ctypes.byref(header), data) != 0:
-        raise OSError(ctypes.get_errno(), "capset")
-
-
-def _as_a_user(fn):
-    """``fn()`` where file permissions bind: here, or for root in a child process that has given up its power to
-    override them. Returns (exit code, what it wrote to stderr)."""
-    import io
-    from contextlib import redirect_stderr
-
-    if os.geteuid() != 0:
-        err = io.StringIO()
-        with redirect_stderr(err):
-            code = fn()
-        return code, err.getvalue()
-    read, write = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # the child: never returns into pytest
-        code = 99
-        try:
-            os.close(read)
-            _drop_permission_override()
-            err = io.StringIO()
-            with redirect_stderr(err):
-                code = fn()
-            os.write(write, err.getvalue().encode())
-        except BaseException:
-            import traceback
-
-            os.write(write, traceback.format_exc().encode())
-        finally:
-            os._exit(code if isinstance(code, int) else 98)
-    os.close(write)
-    with os.fdopen(read) as f:
-        text = f.read()
-    _, status = os.waitpid(pid, 0)
-    return os.waitstatus_to_exitcode(status), text
-
-
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="drops root's file-permission override (Linux)")
 @pytest.mark.parametrize("file_mode, folder_mode, words", [
     (0o444, 0o755, "h.sqlite: it cannot be written (Permission denied)"),
@@ -237,7 +182,7 @@ def test_a_history_that_cannot_be_written_exits_2_before_any_work(tmp_path, file
     os.chmod(folder, folder_mode)
     before = _files(folder)
     try:
-        code, err = _as_a_user(lambda: main(["nightly", "--quick", "--workers", "1", SCENARIO, "--out", str(out),
+        code, err = as_a_user(lambda: main(["nightly", "--quick", "--workers", "1", SCENARIO, "--out", str(out),
                                              "--history", str(history)]))
     finally:
         os.chmod(folder, 0o755)
@@ -250,6 +195,8 @@ def test_bad_arguments_exit_2_naming_them(tmp_path):
     cases = [(["--keep", "0"], "--keep: expected a positive number"),
              (["--baseline", "3"], "--baseline 3: the history"),
              (["--mujoco", "4.x"], "--mujoco: '4.x' is not a release number"),
+             (["--mujoco", "04.0.0"], "--mujoco: '04.0.0' is not a release number"),
+             (["--mujoco", "3.2.7,,"], "--mujoco: an empty item in '3.2.7,,'"),
              (["--speed-drop", "1.5"], "--speed-drop: expected a positive number at most 1, got 1.5"),
              (["--error-factor", "-1"], "--error-factor: expected a positive number, got -1.0"),
              (["--history", tmp_path / "missing" / "h.sqlite"], "does not exist"),

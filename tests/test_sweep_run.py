@@ -330,7 +330,7 @@ def test_a_scheduler_address_that_is_not_dask_is_named_within_seconds(tmp_path, 
         server.shutdown()
     err = capsys.readouterr().err
     assert f"--scheduler {address}: something answers there, but not a Dask scheduler within 1 s" in err, err
-    with LocalCluster(n_workers=0, processes=False, protocol="tcp", dashboard_address=None) as cluster:
+    with LocalCluster(n_workers=0, processes=False, protocol="tcp", dashboard_address=":0") as cluster:
         R._is_a_scheduler(cluster.scheduler_address)  # nothing raised
 
 
@@ -357,6 +357,32 @@ def test_ctrl_c_in_a_dask_sweep_ends_it_promptly_and_quietly(tmp_path):
         _, err = proc.communicate(timeout=60)
         assert proc.returncode == 130 and "Traceback" not in err and "interrupted" in err, (delay, err)
         assert time.monotonic() - t0 < 5, (delay, time.monotonic() - t0, err)
+
+
+def test_a_partial_log_that_is_a_folder_is_named(tmp_path, capsys):
+    """Issue 24, item 12: the message names the log, not a temporary file beside it."""
+    (tmp_path / "out" / "small" / R.PARTIAL_LOG).mkdir(parents=True)
+    assert main(["sweep", str(_spec(tmp_path)), "--out", str(tmp_path / "out"), "--jobs", "1"]) == 2
+    err = capsys.readouterr().err
+    assert f"{R.PARTIAL_LOG}: is a folder; expected a file" in err and ".tmp" not in err, err
+
+
+def test_a_read_only_sweep_folder_is_named(tmp_path):
+    """Issue 24, item 12: <out>/<spec>/ that cannot be written: its log is named, not a temporary file."""
+    import os
+
+    from permissions import as_a_user
+
+    root = tmp_path / "out" / "small"
+    root.mkdir(parents=True)
+    os.chmod(root, 0o555)
+    path = _spec(tmp_path)
+    try:
+        code, err = as_a_user(lambda: main(["sweep", str(path), "--out", str(tmp_path / "out"), "--jobs", "1"]))
+    finally:
+        os.chmod(root, 0o755)
+    assert code == 2 and f"{root / R.PARTIAL_LOG}: Permission denied (writing it in {root})" in err, err
+    assert ".tmp" not in err
 
 
 def test_bundled_sweeps_are_valid():

@@ -182,6 +182,17 @@ def _print_study(st) -> None:
             print(f"  FAILED {c.name}: {c.note}")
 
 
+def _clock_note(runner, dt: float, flag: str) -> str | None:
+    """The note of ``runner``'s engine clock on the step ``dt`` (None: taken as given); a :class:`UsageError`
+    naming ``flag`` for a step the engine's clock cannot take."""
+    if runner.clock is None:
+        return None
+    try:
+        return runner.clock(dt)
+    except ValueError as exc:
+        raise UsageError(f"{flag}: {str(exc).removeprefix('dt: ')} ({runner.name})") from None
+
+
 def _steps_arg(text, scenario):
     from .scenario import check_steps
 
@@ -216,6 +227,13 @@ def _converge(args, pool) -> int:
     scenario = resolve_scenario(args.scenario)
     methods = _methods_arg(args.methods) if args.methods is not None else None
     steps = _steps_arg(args.steps, scenario) if args.steps is not None else None
+    from .runners import RUNNERS
+    from .study import default_methods
+
+    for m in (methods or default_methods(scenario)) if steps else ():
+        if m in RUNNERS:
+            for dt in steps:
+                _clock_note(RUNNERS[m], dt, "--steps")
     if args.json:
         check_output_file(args.json, "--json", suffixes=(".json",))
     if args.out:
@@ -261,10 +279,13 @@ def _cmd_run(args) -> int:
         check_step(args.dt, scenario.duration, runs_at_once=1)
     except ValueError as exc:
         raise UsageError(f"--dt: {exc} (scenario {scenario.name}, duration {scenario.duration:g} s)") from None
+    clock_note = _clock_note(runner, args.dt, "--dt")
     if args.csv:
         check_output_file(args.csv, "--csv", suffixes=(".csv",))
     if args.plot:
         check_output_file(args.plot, "--plot", suffixes=PLOT_SUFFIXES)
+    if clock_note:
+        print(f"note: {clock_note}")
     ctx = run_context(scenario)
     t0 = time.perf_counter()
     traj = runner.run_at(ctx, args.dt, args.rtol)

@@ -83,14 +83,35 @@ def is_url(location) -> bool:
     return str(location).startswith(("postgresql://", "postgres://"))
 
 
+def _password(url: str) -> str | None:
+    """The password a PostgreSQL URL carries (``user:password@`` or ``?password=``), if any."""
+    from urllib.parse import parse_qs, unquote, urlsplit
+
+    parts = urlsplit(url)
+    if parts.password:
+        return unquote(parts.password)
+    given = parse_qs(parts.query).get("password")
+    return given[0] if given else None
+
+
 def display(location) -> str:
-    """A history's location for messages: a URL without its password."""
+    """A history's location for messages: a URL without its password (in the credentials or the query)."""
     text = str(location)
-    if is_url(text) and "@" in text:
-        scheme, rest = text.split("://", 1)
+    if not is_url(text):
+        return text
+    scheme, rest = text.split("://", 1)
+    rest, _, query = rest.partition("?")
+    if "@" in rest:
         cred, host = rest.rsplit("@", 1)
-        return f"{scheme}://{cred.split(':', 1)[0]}@{host}"
-    return text
+        rest = f"{cred.split(':', 1)[0]}@{host}"
+    kept = "&".join(p if not p.lower().startswith("password=") else "password=***" for p in query.split("&"))
+    return f"{scheme}://{rest}" + (f"?{kept}" if query else "")
+
+
+def scrub(text: str, location) -> str:
+    """``text`` (a driver's message) with the password of the URL ``location`` masked wherever it appears."""
+    secret = _password(str(location)) if is_url(location) else None
+    return text.replace(secret, "***") if secret else text
 
 
 # -----------------------------------------------------------------------------------------------------
@@ -168,7 +189,8 @@ class _Postgres:
         try:
             return self.psycopg.connect(self.url, autocommit=True, connect_timeout=int(BUSY_TIMEOUT))
         except self.psycopg.Error as exc:
-            raise HistoryError(f"{self.where}: cannot be opened ({str(exc).strip().splitlines()[0]})") from None
+            raise HistoryError(f"{self.where}: cannot be opened ({scrub(str(exc).strip().splitlines()[0], self.url)})"
+                               ) from None
 
     def exists(self) -> bool:
         return True

@@ -29,7 +29,7 @@ from .versions import NOT_INSTALLED, package_version
 
 #: What an environment takes from the running one, pinned (MuJoCo may not pull other versions in).
 PINNED = ("numpy", "scipy", "numba", "llvmlite", "matplotlib")
-_RELEASE = re.compile(r"^\d+\.\d+\.\d+$")
+_RELEASE = re.compile(r"^(0|[1-9]\d*)\.(0|[1-9]\d*)\.(0|[1-9]\d*)$")  # as PyPI spells them: no leading zeros
 
 
 class MatrixError(ValueError):
@@ -38,9 +38,11 @@ class MatrixError(ValueError):
 
 def parse_versions(text: str) -> list[str]:
     """``"3.2.7, 4.0.0"`` -> ``["3.2.7", "4.0.0"]``; ValueError naming ``--mujoco`` for anything else."""
-    items = [v.strip() for v in text.split(",") if v.strip()]
-    if not items:
+    items = [v.strip() for v in text.split(",")]
+    if not any(items):
         raise ValueError(f"--mujoco: expected a comma-separated list of MuJoCo releases, got {text!r}")
+    if not all(items):
+        raise ValueError(f"--mujoco: an empty item in {text!r}; expected releases separated by single commas")
     for v in items:
         if not _RELEASE.match(v):
             raise ValueError(f"--mujoco: {v!r} is not a release number like 3.2.7")

@@ -58,6 +58,9 @@ class Runner:
     twin: str | None = None
     adaptive: bool = False
     demonstration: str | None = None
+    #: ``dt -> note or None``: how the engine's clock takes a step (a note when it rounds it); ValueError, naming
+    #: why, for a step it cannot take. None: any step, as given.
+    clock: Callable[[float], str | None] | None = None
 
     def run_at(self, ctx: RunContext, dt: float, rtol: float | None = None) -> Trajectory:
         """``run`` at the step ``dt`` and, for an adaptive method, the tolerance ``rtol`` (None: its defaults)."""
@@ -103,6 +106,12 @@ def _basilisk(integrator):
     return run
 
 
+def _basilisk_clock(dt: float) -> str | None:
+    from .engines.basilisk import clock_step
+
+    return clock_step(dt)[1]
+
+
 def _basilisk_input_order(torque: dict | None):
     """The order Basilisk's held inputs leave with a scenario's torque (see :mod:`xcheck.engines.basilisk`)."""
     from .fields import FIELDS
@@ -138,7 +147,8 @@ RUNNERS.update({
 if available("basilisk"):
     RUNNERS.update({name: Runner(name, "basilisk", order, summary, _basilisk(name.removeprefix("basilisk-")),
                                  agreement=(name == "basilisk-rk4"), line_style=":", order_with=_basilisk_input_order,
-                                 twin="mrp-rk4" if name == "basilisk-rk4" else None, adaptive=order is None)
+                                 twin="mrp-rk4" if name == "basilisk-rk4" else None, adaptive=order is None,
+                                 clock=_basilisk_clock)
                     for name, (order, summary) in BASILISK_METHODS.items()})
 
 
