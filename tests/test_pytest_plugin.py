@@ -181,3 +181,25 @@ def test_the_example_repository_passes(tmp_path):
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "18 passed" in proc.stdout
     assert load_scenario(dest / "xcheck_tumble.toml").model.name == "satellite.xml"
+
+
+def test_an_unwritable_report_folder_is_a_usage_error_before_the_tests(pytester):
+    """Issue 24, item 9: --xcheck-report onto a file: pytest's usage error (exit 4), no test run, no INTERNALERROR."""
+    _scenario_file(pytester)
+    (pytester.path / "taken").write_text("a file, not a folder")
+    result = _run(pytester, "-q", "--xcheck-report", str(pytester.path / "taken"))
+    assert result.ret == 4, result.stdout.str() + result.stderr.str()
+    err = result.stderr.str()
+    assert "--xcheck-report: " in err and "is a file; expected a folder" in err and "INTERNALERROR" not in err
+    assert "passed" not in result.stdout.str()
+
+
+def test_two_files_of_one_scenario_name_are_refused_for_a_report(pytester):
+    """Issue 24, item 9: their sections and figures in --xcheck-report would be written over each other (the CLI
+    refuses it too); without a report they are two tests like any (test_under_xdist)."""
+    first = _scenario_file(pytester, "xcheck_a.toml")
+    second = _scenario_file(pytester, "xcheck_b.toml")
+    result = _run(pytester, "-q", "-k", "scenario", "--xcheck-report", "rep")
+    result.assert_outcomes(failed=1)
+    out = result.stdout.str()
+    assert f"the scenario name 'gyroscope-nonsingular' is also {first}'s" in out and str(second) in out, out

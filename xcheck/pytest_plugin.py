@@ -36,6 +36,20 @@ def pytest_addoption(parser):
     parser.addini("xcheck_quick", type="bool", default=False, help="like --xcheck-quick")
 
 
+def pytest_configure(config):
+    """``--xcheck-report`` is checked before any test runs (a folder that cannot be written is a usage error, not
+    an internal error after the last test)."""
+    out = config.getoption("xcheck_report", None)
+    if out is not None:
+        from .report.io import OutputPathError, check_output_dir
+
+        try:
+            check_output_dir(out, "--xcheck-report")
+        except OutputPathError as exc:
+            raise pytest.UsageError(str(exc)) from None
+    config._xcheck_names = {}  # scenario name -> the file that has it
+
+
 def _quick(config) -> bool:
     return bool(config.getoption("xcheck_quick") or config.getini("xcheck_quick"))
 
@@ -73,6 +87,14 @@ class ScenarioFile(pytest.File):
             yield BrokenScenario.from_parent(self, name="scenario", message=str(exc))
             return
         self._study = None
+        names = getattr(self.config, "_xcheck_names", {})
+        other = names.setdefault(self.scenario.name, self.path)
+        if other != self.path and self.config.getoption("xcheck_report") is not None:
+            # their sections and figures in the report would be written over each other
+            yield BrokenScenario.from_parent(self, name="scenario", message=(
+                f"{self.path}: the scenario name {self.scenario.name!r} is also {other}'s; --xcheck-report needs "
+                "each scenario file to have its own name"))
+            return
         methods = default_methods(self.scenario)
         planned = planned_checks(self.scenario, methods, quick=_quick(self.config))
         for method in methods:
