@@ -15,7 +15,7 @@ from xcheck.cli import main
 from xcheck.rotations import attitude_error, quat_to_dcm
 from xcheck.scenario import ScenarioError, load_scenario, resolve_scenario
 from xcheck.sensing import run_determination
-from xcheck.sensors import NoiseLevel, observe, predicted_rms
+from xcheck.sensors import DEFAULT_SPEC, NoiseLevel, observe, predicted_rms
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 
@@ -143,7 +143,15 @@ def test_a_field_without_an_inertial_direction_is_refused(tmp_path, torque, word
     ('[determination]\ndt = 5.0\n', "[determination] dt:"),
     ('[determination]\nmethods = ["triad", "davenport"]\n', "unknown method 'davenport'"),
     ('[determination]\nsun_direction = [0.0, 0.0, 0.0]\n', "sun_direction: a zero vector"),
-    ('[determination]\napproach_angles_deg = [0.0]\n', "approach_angles_deg: expected angles in (0, 90]"),
+    ('[determination]\napproach_angles_deg = [0.0]\n', "approach_angles_deg: expected angles from 0.001 to 90"),
+    # issue 24, item 7: refused with the file read, before the run (LinAlgError after it, exit 3, before)
+    ('[determination]\napproach_angles_deg = [1e-12]\n', "approach_angles_deg: expected angles from 0.001 to 90"),
+    ('[[determination.noise]]\nname = "x"\nmagnetometer_nT = 1e200\nsun_deg = 0.1\n',
+     "[determination.noise #1] magnetometer_nT: 1e+200 nT is beyond a magnetometer's noise"),
+    ('[[determination.noise]]\nname = "x"\nmagnetometer_nT = 1e-300\nsun_deg = 0.1\n',
+     "magnetometer_nT: 1e-300 nT is below a magnetometer's noise"),
+    ('[[determination.noise]]\nname = "x"\nmagnetometer_nT = 50.0\nsun_deg = 1e-300\n',
+     "sun_deg: 1e-300° is below a sun sensor's noise"),
     ('[[determination.noise]]\nname = "x"\nmagnetometer_nT = 0.0\nsun_deg = 0.1\n',
      "[determination.noise #1] magnetometer_nT: a noise-free sensor beside a noisy one"),
     ('[[determination.noise]]\nname = "x"\nmagnetometer_nT = -1.0\nsun_deg = 0.1\n', "cannot be negative"),
@@ -187,3 +195,35 @@ def test_cli_determine_refusals(capsys, argv, words):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert words in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("sun", ["[2.0, -0.5, 1.0]", "[-4.0, 1.0, -2.0]"], ids=["parallel", "antiparallel"])
+def test_a_sun_along_a_uniform_field_is_refused_with_the_file(tmp_path, sun):
+    """Issue 24, item 7: known from the file alone, so refused as it is read (it was refused after MuJoCo's run,
+    naming neither the file nor the key, and in a report threw the whole run away)."""
+    path = _scenario(tmp_path, '[torque]\nkind = "magnetic"\nfield = "uniform"\nH_world = [20.0, -5.0, 10.0]\n',
+                     f"[determination]\nsun_direction = {sun}\n")
+    with pytest.raises(ScenarioError) as exc:
+        load_scenario(path)
+    assert str(exc.value).startswith(f"{path}: [determination] sun_direction: ") and "parallel to the uniform field" \
+        in str(exc.value)
+
+
+def test_a_field_that_turns_onto_the_sun_fails_one_check_not_the_study(tmp_path):
+    """Issue 24, item 7: with a field that turns, only the run knows the geometry. The sun placed exactly along
+    the orbit field's direction at t = 0: no level can be solved (or its error predicted) there, which is one failed
+    check per level with its reason, and no NaN; the approach study (which places the sun itself) stands."""
+    from xcheck.study import run_context
+
+    torque = '[torque]\nkind = "magnetic"\nfield = "orbit-dipole"\n'
+    field = run_context(load_scenario(_scenario(tmp_path, torque))).torque.field
+    d = field.strength(np.array([0.0]))[0]
+    d = d / np.linalg.norm(d)
+    path = _scenario(tmp_path, torque, f"[determination]\nsun_direction = [{float(d[0])!r}, {float(d[1])!r}, {float(d[2])!r}]\n")
+    data, _ = run_determination(load_scenario(path))
+    failed = [c for c in data["checks"] if not c["passed"]]
+    names = [lv.name for lv in DEFAULT_SPEC.levels]
+    assert not data["passed"] and [c["name"] for c in failed] == [f"{n}: an attitude at every sample" for n in names]
+    assert all("not determinable along this run" in c["text"] and "parallel" in c["text"] for c in failed), failed
+    assert [lv["name"] for lv in data["levels"]] == names and all(not lv["methods"] for lv in data["levels"])
+    assert data["approach"] is not None  # the approach study places the sun itself: it stands

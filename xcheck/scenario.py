@@ -348,7 +348,7 @@ def load_scenario(path) -> Scenario:
         from .sensors import read_determination
 
         determination = read_determination(_Reader(path, top.get("determination", "table"), "determination"),
-                                           duration)
+                                           duration, torque)
 
     scenario = Scenario(name=name, path=path, model=model, duration=duration, q0=q0, omega0=omega0,
                         sequence=sequence, description=description, torque=torque, steps=steps,

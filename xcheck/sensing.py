@@ -89,9 +89,18 @@ def run_determination(scenario, spec: DeterminationSpec | None = None) -> tuple[
     rng = np.random.default_rng(spec.seed)
     levels, series, checks = [], {"t": traj.t, "levels": {}}, []
     for level in spec.levels:
-        first, pred, solved = _solve(level, sun_world, B_body, B_world, R, traj.q, spec.methods, rng)
         row = {"name": level.name, "magnetometer_nT": level.magnetometer_nT, "sun_deg": level.sun_deg,
-               "first": first, "predicted_rms": pred, "methods": {}}
+               "first": None, "predicted_rms": None, "methods": {}}
+        try:
+            first, pred, solved = _solve(level, sun_world, B_body, B_world, R, traj.q, spec.methods, rng)
+        except (det.DeterminationError, np.linalg.LinAlgError) as exc:  # geometry only the run knows (a field
+            # that turns onto the sun's direction): this level fails its check; the rest of the report stands
+            checks.append({"name": f"{level.name}: an attitude at every sample", "passed": False,
+                           "text": f"not determinable along this run: {_why(exc)}"})
+            levels.append(row)
+            series["levels"][level.name] = {"errors": {}, "predicted_rms": None}
+            continue
+        row.update(first=first, predicted_rms=pred)
         errs = {}
         for m, (err, near, seconds) in solved.items():
             errs[m] = err
@@ -110,7 +119,13 @@ def run_determination(scenario, spec: DeterminationSpec | None = None) -> tuple[
                                        f"(ratio {ratio:.3f}, band {lo:g}-{hi:g})"})
         levels.append(row)
         series["levels"][level.name] = {"errors": errs, "predicted_rms": pred}
-    approach = _approach(spec, traj, R, B_body, B_world, rng) if spec.approach_noise else None
+    approach = None
+    if spec.approach_noise:
+        try:
+            approach = _approach(spec, traj, R, B_body, B_world, rng)
+        except (det.DeterminationError, np.linalg.LinAlgError) as exc:
+            checks.append({"name": "the approach study", "passed": False,
+                           "text": f"not determinable along this run: {_why(exc)}"})
     data = {"scenario": scenario.name, "truth": {"method": spec.method, "dt": spec.dt, "samples": T,
                                                  "duration": float(traj.t[-1])},
             "magnetometer": source, "sun_direction": list(spec.sun_direction),
@@ -118,6 +133,12 @@ def run_determination(scenario, spec: DeterminationSpec | None = None) -> tuple[
             "seed": spec.seed, "methods": list(spec.methods), "levels": levels, "approach": approach,
             "checks": checks, "passed": all(c["passed"] for c in checks)}
     return data, series
+
+
+def _why(exc) -> str:
+    if isinstance(exc, np.linalg.LinAlgError):
+        return "the predicted error's information matrix is singular (the two directions are parallel)"
+    return str(exc)
 
 
 def _approach(spec, traj, R, B_body, B_world, rng) -> dict:

@@ -48,8 +48,19 @@ class DeterminationSpec:
 DEFAULT_SPEC = DeterminationSpec()
 
 
-def read_determination(reader, duration: float) -> DeterminationSpec:
-    """The ``[determination]`` table through a :class:`xcheck.scenario._Reader` (errors name file and key)."""
+#: The closest the sun may come to the field's direction [deg], in the approach study or (a uniform field) in
+#: the scenario: closer, the two directions are parallel for the solvers' arithmetic (the predicted error's
+#: information matrix goes singular), and no attitude can be determined.
+MIN_ANGLE_DEG = 1e-3
+#: A noisy sensor's standard deviations: beyond the largest, the reading is noise (a LEO field is 2e4-6e4 nT);
+#: below the smallest, none has been built, and the weights 1/σ² would overflow.
+MAGNETOMETER_NT = (1e-6, 1e4)
+SUN_DEG = (1e-6, 10.0)
+
+
+def read_determination(reader, duration: float, torque: dict | None = None) -> DeterminationSpec:
+    """The ``[determination]`` table through a :class:`xcheck.scenario._Reader` (errors name file and key).
+    ``torque``: the scenario's [torque] table; a uniform field's direction is checked against the sun's."""
     from .runners import RUNNERS, unknown_method
     from .trajectory import check_step
 
@@ -92,15 +103,29 @@ def read_determination(reader, duration: float) -> DeterminationSpec:
                 sub.fail("sun_deg" if sun_deg == 0 else "magnetometer_nT",
                          "a noise-free sensor beside a noisy one would get infinite weight; give both a standard "
                          "deviation, or neither")
-            if sun_deg >= 10:
-                sub.fail("sun_deg", f"{sun_deg:g}° is beyond a sun sensor's noise (expected under 10°)")
+            for key, value, (low, high), unit, what in (
+                    ("magnetometer_nT", mag, MAGNETOMETER_NT, " nT", "a magnetometer's"),
+                    ("sun_deg", sun_deg, SUN_DEG, "°", "a sun sensor's")):
+                if value != 0 and not low <= value < high:
+                    sub.fail(key, f"{value:g}{unit} is {'beyond' if value >= high else 'below'} {what} noise "
+                                  f"(expected 0, or {low:g}{unit} up to under {high:g}{unit})")
             if any(lv.name == name for lv in levels):
                 sub.fail("name", f"two noise levels are named {name!r}")
             levels.append(NoiseLevel(name, mag, sun_deg))
         levels = tuple(levels)
     angles = tuple(reader.get("approach_angles_deg", "numbers", list(d.approach_angles_deg)))
-    if not all(0 < a <= 90 for a in angles):
-        reader.fail("approach_angles_deg", f"expected angles in (0, 90] degrees, got {list(angles)}")
+    if not all(MIN_ANGLE_DEG <= a <= 90 for a in angles):
+        reader.fail("approach_angles_deg", f"expected angles from {MIN_ANGLE_DEG:g} to 90 degrees (closer, the sun "
+                                           f"and the field are parallel for the solvers), got {list(angles)}")
+    if torque is not None and torque.get("field") == "uniform" and "H_world" in torque:
+        H = np.asarray(torque["H_world"], dtype=float)
+        u = sun / np.linalg.norm(sun)
+        if np.linalg.norm(H) > 0:
+            angle = np.degrees(np.arccos(np.clip(abs(u @ H) / np.linalg.norm(H), -1.0, 1.0)))
+            if angle < MIN_ANGLE_DEG:
+                reader.fail("sun_direction", f"{sun.tolist()} is {'anti' if u @ H < 0 else ''}parallel to the uniform "
+                                             f"field H_world = {H.tolist()} (within {angle:.2g}°): the two directions "
+                                             "fix no attitude; turn one of them")
     noisy = [lv.name for lv in levels if not lv.noise_free]
     approach = reader.get("approach_noise", "string", d.approach_noise if d.approach_noise in noisy else None)
     if approach is None and noisy:
@@ -156,6 +181,9 @@ def predicted_rms(b_true, sigma) -> np.ndarray:
     """``sqrt(tr P)`` per sample, ``P = [sum_k sigma_k^-2 (I - b_k b_k^T)]^-1`` (Shuster's QUEST measurement
     model): the optimal estimators' RMS attitude error [rad]. ``b_true`` (T, N, 3) unit, ``sigma`` (T, N)."""
     F = np.einsum("tk,tkij->tij", sigma**-2.0, np.eye(3) - np.einsum("tki,tkj->tkij", b_true, b_true))
-    return np.sqrt(np.trace(np.linalg.inv(F), axis1=-2, axis2=-1))
+    trace = np.trace(np.linalg.inv(F), axis1=-2, axis2=-1)
+    if not np.all(np.isfinite(trace) & (trace > 0)):  # a sample whose true directions are parallel: no attitude
+        raise np.linalg.LinAlgError("the information matrix is singular at a sample")
+    return np.sqrt(trace)
 
 
