@@ -140,7 +140,7 @@ def playground(tmp_path_factory):
     return tmp_path_factory.mktemp("fuzz-newer")
 
 
-@_settings(60)
+@_settings(30)
 @given(doc=sweep_specs())
 def test_sweep_specs(playground, capsys, doc):
     """A spec is read without allocating beyond its limit (10 MB for 1000 cells), then run (at most 6 cells)."""
@@ -186,7 +186,7 @@ def determination_tables(draw):
     return table, noise
 
 
-@_settings(40)
+@_settings(25)
 @given(spec=determination_tables(), field=st.sampled_from(["orbit-dipole", "uniform"]))
 def test_determination_tables(playground, capsys, spec, field):
     table, noise = spec
@@ -219,7 +219,7 @@ def history(playground, request):
     return path
 
 
-@_settings(25)
+@_settings(15)
 @given(damage=st.lists(st.tuples(st.floats(0, 1), st.integers(1, 4096), st.sampled_from([b"\x00", b"\xff", b"x"])),
                        min_size=1, max_size=3))
 def test_damaged_histories(playground, capsys, history, damage):
@@ -269,7 +269,7 @@ def interrupted_log(playground):
     return (folder / "out" / "small" / R.PARTIAL_LOG).read_bytes()
 
 
-@_settings(30)
+@_settings(20)
 @given(cut=st.floats(0, 1), flips=st.lists(st.tuples(st.floats(0, 1), st.one_of(
            st.binary(min_size=1, max_size=8), st.text("0123456789.,:{}[]\" e-", min_size=1, max_size=8).map(str.encode))),
            max_size=2),
