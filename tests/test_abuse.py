@@ -300,6 +300,33 @@ def test_a_signal_in_the_first_second_is_reported_in_one_line(tmp_path, command,
         assert not out.exists() or not any(out.rglob("index.html")), delay
 
 
+LOST_INTERRUPT = """
+import os, signal, time
+import xcheck.pool as P
+got = []
+signal.signal(signal.SIGINT, lambda s, f: got.append(s))
+submit = P.ProcessPoolExecutor.submit
+def submit_then_interrupt(self, *args, **kwargs):  # a Ctrl-C that lands while the workers start
+    future = submit(self, *args, **kwargs)
+    os.kill(os.getpid(), signal.SIGINT)
+    return future
+P.ProcessPoolExecutor.submit = submit_then_interrupt
+with P.worker_pool(2):
+    pass
+time.sleep(0.2)
+print(len(got))
+"""
+
+
+@linux_only
+def test_a_ctrl_c_while_the_workers_start_is_not_lost(tmp_path):
+    """The workers are started with SIGINT ignored (a spawned process keeps that), and SIGINT blocked here
+    meanwhile: an interrupt then waits instead of being discarded (a report once ran to the end, exit 0, after a
+    Ctrl-C at 0.2 s)."""
+    proc = subprocess.run([sys.executable, "-c", LOST_INTERRUPT], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0 and proc.stdout.strip() == "1", proc.stdout + proc.stderr
+
+
 def test_an_interrupt_inside_a_string_exec_still_exits_130(tmp_path):
     """A Ctrl-C that lands while a module imports often lands in a string ``exec`` (dataclasses make their methods
     so): CPython then ends ``python -m`` by the signal after xcheck has handled it (exit -2, seen at 0.5 s into a

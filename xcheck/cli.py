@@ -9,7 +9,6 @@ with ``XCHECK_DEBUG=1``). Every input and output path is checked before any work
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import signal
@@ -41,6 +40,8 @@ class Terminated(KeyboardInterrupt):
 #: compiled module, or inside MuJoCo's or Basilisk's call of ours, reaches us as that module's error
 #: ("ImportError: initialization failed", "Python exception raised"), which is then an interrupt all the same.
 _SIGNALLED: list = []
+#: The report folder this command has completed, if any: an interrupt after it says so, not "no report".
+_WRITTEN: list = []
 
 
 def _on_sigterm(signum, frame):
@@ -206,6 +207,7 @@ def _steps_arg(text, scenario):
 def _cmd_converge(args) -> int:
     from .engines import ENGINES, available
     from .pool import worker_pool
+    from .report.build import worker_modules
 
     # A study is quicker in this process than shared with workers, which each pay 1-1.5 s of imports and
     # compiled-code loading before their first run, except for the methods of an engine whose import is costly
@@ -340,133 +342,26 @@ def _plot_run(path, title, traj, err):
     save_figure(fig, path)
 
 
-def worker_modules(figures: bool = True) -> tuple:
-    """What a worker imports as it starts: the study, the engines available here
-    (:func:`xcheck.engines.warm_modules`) and matplotlib's plots (``figures``)."""
-    from .engines import warm_modules
-
-    return ("xcheck.study",) + warm_modules() + (("xcheck.report.plots",) if figures else ())
-
-
 def _cmd_report(args) -> int:
+    from .report.build import build_report
+
     t0 = time.perf_counter()
-    studies, folder = _write_report(args)
-    for st in studies:
+    outcome = build_report(args.scenarios, args.out, quick=args.quick, workers=args.workers, run_bench=args.bench,
+                           trajectories=args.trajectories, progress=Progress(), written=_WRITTEN.append,
+                           started=_STARTED)
+    if args.timings:
+        print(outcome.timings(), file=sys.stderr)
+    for st in outcome.studies:
         _print_study(st)
-    passed = all(st.passed for st in studies) and args.determination_passed
-    print(f"\nreport: {folder}/index.html ({'PASSED' if passed else 'FAILED'}); wall time "
+    print(f"\nreport: {outcome.folder}/index.html ({'PASSED' if outcome.passed else 'FAILED'}); wall time "
           f"{time.perf_counter() - t0:.1f} s")
-    return EXIT_OK if passed else EXIT_CHECK_FAILED
-
-
-def _resolve_scenarios(names):
-    """The scenarios named on the command line (every bundled one when none is), every input error before any
-    work, and distinct names (they name a report's files)."""
-    from .scenario import bundled_scenarios, resolve_scenario
-
-    scenarios = [resolve_scenario(n) for n in names or list(bundled_scenarios())]
-    first = {}
-    for sc in scenarios:
-        if sc.name in first:
-            raise UsageError(f"two scenarios are named {sc.name!r} ({first[sc.name]} and {sc.path}): a report "
-                             "needs distinct names (they name its files)")
-        first[sc.name] = sc.path
-    return scenarios
-
-
-def _write_report(args, sections=None, bench=None):
-    """The report of ``args.scenarios`` into ``args.out`` (``xcheck report``, and the first half of ``xcheck
-    nightly``): returns (studies, the report folder). ``bench``: the benchmark's rows, measured by the caller;
-    otherwise measured here with ``args.bench``."""
-    from .pool import worker_pool
-
-    t0 = time.perf_counter()
-    marks = [("start", _STARTED), ("pool started", t0)]
-    progress = Progress()
-    # --workers 1: everything in this process; otherwise a pool of one worker fewer (this process runs studies
-    # too: each process pays 1-3 s of imports and compiled-code loading) for the studies and the figures, started
-    # first so that the workers import numpy, numba, MuJoCo, matplotlib (and Basilisk) while this process
-    # imports its own and reads the scenarios
-    size = max(1, (args.workers or os.cpu_count() or 2) - 1)
-    with worker_pool(size, warm=worker_modules()) if args.workers != 1 else nullcontext() as pool:
-        from .report.io import check_output_dir
-        from .report.render import draw_figures, write_report
-        from .study import run_studies, throughput_rows
-
-        scenarios = getattr(args, "resolved", None) or _resolve_scenarios(args.scenarios)
-        check_output_dir(args.out, "--out")
-        marks.append(("scenarios read", time.perf_counter()))
-        figures = {}
-
-        def draw(study):  # a scenario's figures, drawn by a worker as soon as its studies are in
-            figures[study.name] = pool.submit(draw_figures, study.data, study.series, args.quick)
-
-        determinations = _start_determinations(scenarios, pool)
-        studies = run_studies(scenarios, quick=args.quick, progress=progress, pool=pool, workers=args.workers,
-                              on_study=draw if pool is not None else None, here=pool is not None)
-        marks.append(("studies", time.perf_counter()))
-        if bench is None and args.bench:
-            from .bench import run_bench
-
-            bench = run_bench(quick=args.quick, repeat=1)
-        folder = write_report(studies, args.out, throughput=throughput_rows(studies) + (bench or []), wall_time=time.perf_counter() - t0,
-                              quick=args.quick, pool=pool, figures=figures,
-                              trajectories=getattr(args, "trajectories", False), marks=marks,
-                              sections=_with_determinations(determinations, sections, args))
-        args.written = folder  # an interrupt from here on must not say "no report was written"
-    marks.append(("workers stopped", time.perf_counter()))
-    if getattr(args, "timings", False):
-        print("where the time went: " + ", ".join(f"{what} {b - a:.2f} s" for (_, a), (what, b)
-                                                 in zip(marks, marks[1:])), file=sys.stderr)
-    return studies, folder
-
-
-def _start_determinations(scenarios, pool) -> dict:
-    """Each scenario's ``[determination]`` study with its figures, started in the pool (or run here)."""
-    from .report.determination import determination_job
-
-    return {sc.name: pool.submit(determination_job, sc) if pool is not None else determination_job(sc)
-            for sc in scenarios if sc.determination is not None}
-
-
-def _with_determinations(determinations, sections, args):
-    """The report's ``sections``: the determination studies and seed 002 reproduced (when any scenario has a
-    ``[determination]``), then ``sections``' own (the nightly's History). Their verdict joins the report's and
-    is kept in ``args.determination_passed`` for the exit code."""
-    args.determination_passed = True
-    if not determinations:
-        return sections
-
-    def all_sections(results):
-        from .report.determination import determination_blocks, seed002_blocks
-        from .seed002 import reproduce
-
-        blocks, figures = [], []
-        results["determination"] = []
-        for future in determinations.values():
-            data, drawn = future.result() if hasattr(future, "result") else future
-            results["determination"].append(data)
-            blocks += determination_blocks(data, [(file, caption) for file, caption, _ in drawn])
-            figures += drawn
-        rep = reproduce()
-        results["seed002"] = {"passed": rep["passed"]}
-        blocks += seed002_blocks(rep)
-        args.determination_passed = rep["passed"] and all(d["passed"] for d in results["determination"])
-        results["passed"] = results["passed"] and args.determination_passed
-        summary = None
-        if sections is not None:
-            summary, more, drawn = sections(results)
-            blocks += more
-            figures += drawn
-        return summary, blocks, figures
-
-    return all_sections
+    return EXIT_OK if outcome.passed else EXIT_CHECK_FAILED
 
 
 def _cmd_nightly(args) -> int:
     """The full report, compared with the history, then recorded in it (see :mod:`xcheck.nightly`)."""
     from . import nightly
-    from .history import HistoryError, open_history, utc_now
+    from .report.build import resolve_scenarios
     from .report.io import check_output_dir
 
     if args.keep is not None and args.keep < 1:
@@ -487,82 +382,27 @@ def _cmd_nightly(args) -> int:
             versions = parse_versions(args.mujoco)
         except ValueError as exc:
             raise UsageError(str(exc)) from None
-    args.resolved = _resolve_scenarios(args.scenarios)
+    scenarios = resolve_scenarios(args.scenarios)
     check_output_dir(args.out, "--out")
     if args.history is not None and not args.history.strip():
         raise UsageError("--history: expected a SQLite file or a postgresql:// URL, got an empty string")
     location = args.history or nightly.default_history(args.out)
-    nightly.check_history(location, args.baseline)
-    host, commit = nightly.host_name(), nightly.git_commit()
-    t0 = time.perf_counter()
-
-    # the other MuJoCo releases first, each in its environment: the main report shows the version table
-    matrix, installed = [], None
-    if versions:
-        from .matrix import installed_mujoco, run_matrix
-
-        installed = installed_mujoco()
-        matrix = run_matrix(versions, [str(sc.path) for sc in args.resolved], Path(args.out), quick=args.quick,
-                            workers=args.workers)
-    bench, comparisons = [], []
-
-    def sections(results):
-        from .report.trends import history_section, version_table_blocks
-
-        main = nightly.compare_run(location, results, throughput=bench, host=host, baseline=args.baseline,
-                                   last=args.last, thresholds=thresholds)
-        comparisons.append(main)
-        for vr, _, _ in matrix:
-            if vr.results is not None:
-                comparisons.append(nightly.compare_run(location, vr.results, host=host, last=args.last,
-                                                       environment=f"mujoco=={vr.version}", thresholds=thresholds))
-        summary, blocks, figures = history_section(main, others=comparisons[1:])
-        results["history"] = [c.to_json() for c in comparisons]
-        if versions:
-            columns = [(vr.version, vr.results, vr.note, vr.folder and os.path.relpath(vr.folder, args.out))
-                       for vr, _, _ in matrix]
-            if installed in versions:
-                columns.append((installed, results, "the installed release", None))
-            columns.sort(key=lambda c: tuple(map(int, c[0].split("."))))
-            blocks += version_table_blocks(columns, thresholds)
-        return summary, blocks, figures
-
-    started = utc_now()
-    if args.bench:  # measured before the report so that its History section can compare the rows
-        from .bench import run_bench
-
-        bench += run_bench(quick=args.quick, repeat=3)
-    studies, folder = _write_report(args, sections=sections, bench=bench)
-    finished = utc_now()
-    # the report is complete: record it and the matrix's runs, in one transaction
-    runs = [dict(results=vr.results, started=v_started, finished=v_finished, git_commit=commit, host=host,
-                 report=str(vr.folder), environment=f"mujoco=={vr.version}")
-            for vr, v_started, v_finished in matrix if vr.results is not None]
-    runs.append(dict(results=json.loads((folder / "results.json").read_text()), started=started, finished=finished,
-                     git_commit=commit, host=host, report=str(folder.resolve()), throughput=bench))
-    try:
-        with open_history(location) as hist:
-            run_id = hist.record_runs(runs)[-1]
-    except HistoryError as exc:
-        raise HistoryError(f"{exc}; the report {folder} is complete") from None
-    for st in studies:
+    outcome = nightly.run_nightly(scenarios, args.out, location=location, baseline=args.baseline, last=args.last,
+                                  thresholds=thresholds, versions=versions, quick=args.quick, workers=args.workers,
+                                  bench=args.bench, keep=args.keep, progress=Progress(), written=_WRITTEN.append,
+                                  started=_STARTED)
+    for st in outcome.report.studies:
         _print_study(st)
-    passed = all(st.passed for st in studies) and args.determination_passed
-    regressions = [c for cmp in comparisons for c in cmp.regressions]
     print()
-    for cmp in comparisons:
+    for cmp in outcome.comparisons:
         for line in cmp.lines():
             print(line)
-    if args.keep is not None:
-        roots = [Path(args.out)] + [Path(args.out) / f"mujoco-{vr.version}" for vr, _, _ in matrix]
-        removed = [p for root in roots if root.is_dir() for p in nightly.keep_newest(root, args.keep, protect=[folder])]
-        if removed:
-            print(f"--keep {args.keep}: removed {len(removed)} older report folder{'s' * (len(removed) > 1)}")
-    verdict = ("PASSED, no regression" if passed and not regressions else
-               f"{'PASSED' if passed else 'FAILED'}, {len(regressions)} regression{'s' * (len(regressions) != 1)}")
-    print(f"\nnightly: run {run_id} recorded in {nightly.H.display(location)}; report {folder}/index.html "
-          f"({verdict}); wall time {time.perf_counter() - t0:.1f} s")
-    return EXIT_OK if passed and not regressions else EXIT_CHECK_FAILED
+    if outcome.removed:
+        n = len(outcome.removed)
+        print(f"--keep {args.keep}: removed {n} older report folder{'s' * (n > 1)}")
+    print(f"\nnightly: run {outcome.run_id} recorded in {nightly.H.display(location)}; report "
+          f"{outcome.report.folder}/index.html ({outcome.verdict()}); wall time {outcome.wall_time:.1f} s")
+    return EXIT_OK if outcome.passed else EXIT_CHECK_FAILED
 
 
 def _cmd_bench(args) -> int:
@@ -660,7 +500,7 @@ def _cmd_determine(args) -> int:
         from .report.determination import draw_determination, write_determination
 
         folder = write_determination(data, draw_determination(data, series), args.out)
-        args.written = folder
+        _WRITTEN.append(folder)
         print(f"report: {folder}/index.html")
     return EXIT_OK if data["passed"] else EXIT_CHECK_FAILED
 
@@ -853,6 +693,7 @@ def _user_errors() -> tuple:
 
 def _run(args) -> int:
     """``args.func(args)`` with every failure a user can cause turned into a message and an exit code."""
+    _WRITTEN.clear()  # nothing written yet by this command
     from concurrent.futures.process import BrokenProcessPool  # an interrupt here is main's to report
 
     try:
@@ -877,7 +718,7 @@ def _run(args) -> int:
         print(f"xcheck: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt as exc:
-        return _interrupted(exc, getattr(args, "written", None))
+        return _interrupted(exc, _WRITTEN[-1] if _WRITTEN else None)
     except BrokenPipeError:  # output piped into a reader that stopped (| head): stop quietly
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK

@@ -169,3 +169,108 @@ def keep_newest(out_root, keep: int, *, protect=()) -> list[Path]:
         shutil.rmtree(p)
         removed.append(p)
     return removed
+
+
+# -----------------------------------------------------------------------------------------------------
+# the nightly as a piece of work
+# -----------------------------------------------------------------------------------------------------
+@dataclass
+class NightlyOutcome:
+    """What :func:`run_nightly` did: the report (:class:`~xcheck.report.build.ReportOutcome`), the id of the
+    run it recorded, the comparisons (the run's own, then each matrix release's), the older report folders
+    ``keep`` removed, and the wall time [s]."""
+
+    report: object
+    run_id: int
+    location: str
+    comparisons: list
+    removed: list
+    wall_time: float
+
+    @property
+    def regressions(self) -> list:
+        return [c for cmp in self.comparisons for c in cmp.regressions]
+
+    @property
+    def passed(self) -> bool:
+        return self.report.passed and not self.regressions
+
+    def verdict(self) -> str:
+        n = len(self.regressions)
+        return ("PASSED, no regression" if self.passed else
+                f"{'PASSED' if self.report.passed else 'FAILED'}, {n} regression{'s' * (n != 1)}")
+
+
+def run_nightly(scenarios, out, *, location, baseline: int | None = None, last: int = 7,
+                thresholds: H.Thresholds = H.Thresholds(), versions=(), quick: bool = False,
+                workers: int | None = None, bench: bool = False, keep: int | None = None, progress=None,
+                written=None, started: float | None = None) -> NightlyOutcome:
+    """The nightly of ``scenarios`` (resolved, distinct) into ``out``, compared with and then recorded in the
+    history at ``location`` (checked here first, before any work): the other MuJoCo ``versions`` first, each in
+    its environment, then the report with its History section, then one transaction for every run, then
+    ``keep``. ``written(folder)`` as soon as the report folder is complete."""
+    import json
+    import os
+    import time
+
+    from .report.build import build_report
+
+    check_history(location, baseline)
+    host, commit = host_name(), git_commit()
+    t0 = time.perf_counter()
+    matrix, installed = [], None
+    if versions:
+        from .matrix import installed_mujoco, run_matrix
+
+        installed = installed_mujoco()
+        matrix = run_matrix(list(versions), [str(sc.path) for sc in scenarios], Path(out), quick=quick,
+                            workers=workers)
+    rows, comparisons = [], []
+
+    def sections(results):
+        from .report.trends import history_section, version_table_blocks
+
+        main = compare_run(location, results, throughput=rows, host=host, baseline=baseline, last=last,
+                           thresholds=thresholds)
+        comparisons.append(main)
+        for vr, _, _ in matrix:
+            if vr.results is not None:
+                comparisons.append(compare_run(location, vr.results, host=host, last=last,
+                                               environment=f"mujoco=={vr.version}", thresholds=thresholds))
+        summary, blocks, figures = history_section(main, others=comparisons[1:])
+        results["history"] = [c.to_json() for c in comparisons]
+        if versions:
+            columns = [(vr.version, vr.results, vr.note, vr.folder and os.path.relpath(vr.folder, out))
+                       for vr, _, _ in matrix]
+            if installed in versions:
+                columns.append((installed, results, "the installed release", None))
+            columns.sort(key=lambda c: tuple(map(int, c[0].split("."))))
+            blocks += version_table_blocks(columns, thresholds)
+        return summary, blocks, figures
+
+    began = H.utc_now()
+    if bench:  # measured before the report so that its History section can compare the rows
+        from .bench import run_bench
+
+        rows += run_bench(quick=quick, repeat=3)
+    report = build_report(scenarios, out, quick=quick, workers=workers, bench=rows, sections=sections,
+                          progress=progress, written=written, started=started)
+    finished = H.utc_now()
+    # the report is complete: record it and the matrix's runs, in one transaction
+    runs = [dict(results=vr.results, started=v_started, finished=v_finished, git_commit=commit, host=host,
+                 report=str(vr.folder), environment=f"mujoco=={vr.version}")
+            for vr, v_started, v_finished in matrix if vr.results is not None]
+    runs.append(dict(results=json.loads((report.folder / "results.json").read_text()), started=began,
+                     finished=finished, git_commit=commit, host=host, report=str(report.folder.resolve()),
+                     throughput=rows))
+    try:
+        with H.open_history(location) as hist:
+            run_id = hist.record_runs(runs)[-1]
+    except H.HistoryError as exc:
+        raise H.HistoryError(f"{exc}; the report {report.folder} is complete") from None
+    removed = []
+    if keep is not None:
+        roots = [Path(out)] + [Path(out) / f"mujoco-{vr.version}" for vr, _, _ in matrix]
+        removed = [p for root in roots if root.is_dir() for p in keep_newest(root, keep, protect=[report.folder])]
+    return NightlyOutcome(report=report, run_id=run_id, location=str(location), comparisons=comparisons,
+                          removed=removed, wall_time=time.perf_counter() - t0)

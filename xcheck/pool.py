@@ -107,12 +107,17 @@ def _start_workers(pool: ProcessPoolExecutor, modules=()) -> None:
     a worker before its initializer has made it ignore SIGINT (it would break the pool). ``pool.starting`` holds
     those tasks: one done is a worker ready."""
     main_thread = threading.current_thread() is threading.main_thread()
+    block = main_thread and hasattr(signal, "pthread_sigmask")
+    if block:  # a Ctrl-C meanwhile waits (Linux queues a signal that is blocked, ignored or not) instead of being lost
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
     try:
         pool.starting = [pool.submit(_import, modules) for _ in range(pool._max_workers)]
     finally:
         if main_thread:
             signal.signal(signal.SIGINT, previous)
+        if block:  # the executor's thread, started meanwhile, keeps SIGINT blocked: it is this thread's alone
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 class _Sigaction(ctypes.Structure):

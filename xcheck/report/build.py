@@ -1,0 +1,155 @@
+"""The report as a piece of work (``xcheck report``, and the first half of ``xcheck nightly``): the scenarios'
+studies, their determination studies and figures in one pool of workers, then the report folder. Typed in,
+typed out: :func:`build_report` returns a :class:`ReportOutcome`; the command line prints it and chooses the
+exit code.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from contextlib import nullcontext
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+__all__ = ["ReportOutcome", "build_report", "resolve_scenarios", "worker_modules"]
+
+
+def worker_modules(figures: bool = True) -> tuple:
+    """What a worker imports as it starts: the study, the engines available here
+    (:func:`xcheck.engines.warm_modules`) and matplotlib's plots (``figures``)."""
+    from ..engines import warm_modules
+
+    return ("xcheck.study",) + warm_modules() + (("xcheck.report.plots",) if figures else ())
+
+
+def resolve_scenarios(names) -> list:
+    """The scenarios named (every bundled one when none is), every input error before any work, and distinct
+    names (they name a report's files): :class:`~xcheck.scenario.ScenarioError` otherwise."""
+    from ..scenario import ScenarioError, bundled_scenarios, resolve_scenario
+
+    scenarios = [resolve_scenario(n) for n in names or list(bundled_scenarios())]
+    first = {}
+    for sc in scenarios:
+        if sc.name in first:
+            raise ScenarioError(f"two scenarios are named {sc.name!r} ({first[sc.name]} and {sc.path}): a report "
+                                "needs distinct names (they name its files)")
+        first[sc.name] = sc.path
+    return scenarios
+
+
+@dataclass
+class ReportOutcome:
+    """What :func:`build_report` did: the studies (in the scenarios' order), the report folder, whether the
+    determination studies and seed 002's tables passed (True when no scenario has one), and the phases'
+    ``(name, time.perf_counter())`` marks (``--timings``)."""
+
+    studies: list
+    folder: Path
+    determination_passed: bool = True
+    marks: list = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        return all(st.passed for st in self.studies) and self.determination_passed
+
+    def timings(self) -> str:
+        """``where the time went: phase 0.12 s, ...``."""
+        return "where the time went: " + ", ".join(f"{what} {b - a:.2f} s" for (_, a), (what, b)
+                                                   in zip(self.marks, self.marks[1:]))
+
+
+def build_report(scenarios, out, *, quick: bool = False, workers: int | None = None, bench=None,
+                 run_bench: bool = False, trajectories: bool = False, sections=None, progress=None,
+                 written: Callable[[Path], None] | None = None, started: float | None = None) -> ReportOutcome:
+    """The report of ``scenarios`` into ``out``: :class:`~xcheck.scenario.Scenario` objects, or the names and
+    files to resolve (:func:`resolve_scenarios`: done while the workers start, as is the check of ``out``).
+
+    ``workers``: 1 runs everything in this process; otherwise a pool of one worker fewer than ``workers`` (the
+    CPU count by default) runs the studies and draws the figures beside this process. ``bench``: ``xcheck
+    bench`` rows measured by the caller; else measured here when ``run_bench``. ``sections(results)``: more of
+    the report (the nightly's History), see :func:`xcheck.report.render.write_report`. ``written(folder)`` is
+    called as soon as the folder is complete (an interrupt after it has a complete report). ``started``: the
+    first mark (the command's start)."""
+    from ..pool import worker_pool
+    from .render import draw_figures, write_report
+
+    t0 = time.perf_counter()
+    marks = [("start", t0 if started is None else started), ("pool started", t0)]
+    # a pool of one worker fewer (this process runs studies too: each process pays 1-3 s of imports and
+    # compiled-code loading), started first so that the workers import numpy, numba, MuJoCo, matplotlib (and
+    # Basilisk) while this process imports its own
+    size = max(1, (workers or os.cpu_count() or 2) - 1)
+    with worker_pool(size, warm=worker_modules()) if workers != 1 else nullcontext() as pool:
+        from ..scenario import Scenario
+        from ..study import run_studies, throughput_rows
+        from .io import check_output_dir
+
+        if not scenarios or not all(isinstance(sc, Scenario) for sc in scenarios):  # none: every bundled one
+            scenarios = resolve_scenarios(scenarios)
+        check_output_dir(out, "--out")
+        marks.append(("scenarios read", time.perf_counter()))
+        figures = {}
+
+        def draw(study):  # a scenario's figures, drawn by a worker as soon as its studies are in
+            figures[study.name] = pool.submit(draw_figures, study.data, study.series, quick)
+
+        determinations = _start_determinations(scenarios, pool)
+        studies = run_studies(scenarios, quick=quick, progress=progress, pool=pool, workers=workers,
+                              on_study=draw if pool is not None else None, here=pool is not None)
+        marks.append(("studies", time.perf_counter()))
+        if bench is None and run_bench:
+            from ..bench import run_bench as measure
+
+            bench = measure(quick=quick, repeat=1)
+        verdict = {"determination": True}
+        folder = write_report(studies, out, throughput=throughput_rows(studies) + (bench or []),
+                              wall_time=time.perf_counter() - t0, quick=quick, pool=pool, figures=figures,
+                              trajectories=trajectories, marks=marks,
+                              sections=_with_determinations(determinations, sections, verdict))
+        if written is not None:
+            written(folder)
+    marks.append(("workers stopped", time.perf_counter()))
+    return ReportOutcome(studies=studies, folder=folder, determination_passed=verdict["determination"], marks=marks)
+
+
+def _start_determinations(scenarios, pool) -> dict:
+    """Each scenario's ``[determination]`` study with its figures, started in the pool (or run here)."""
+    from .determination import determination_job
+
+    return {sc.name: pool.submit(determination_job, sc) if pool is not None else determination_job(sc)
+            for sc in scenarios if sc.determination is not None}
+
+
+def _with_determinations(determinations, sections, verdict: dict):
+    """The report's ``sections``: the determination studies and seed 002 reproduced (when any scenario has a
+    ``[determination]``), then ``sections``' own (the nightly's History). Their verdict joins the report's and
+    is kept in ``verdict["determination"]``."""
+    if not determinations:
+        return sections
+
+    def all_sections(results):
+        from ..seed002 import reproduce
+        from .determination import determination_blocks, seed002_blocks
+
+        blocks, figures = [], []
+        results["determination"] = []
+        for future in determinations.values():
+            data, drawn = future.result() if hasattr(future, "result") else future
+            results["determination"].append(data)
+            blocks += determination_blocks(data, [(file, caption) for file, caption, _ in drawn])
+            figures += drawn
+        rep = reproduce()
+        results["seed002"] = {"passed": rep["passed"]}
+        blocks += seed002_blocks(rep)
+        verdict["determination"] = rep["passed"] and all(d["passed"] for d in results["determination"])
+        results["passed"] = results["passed"] and verdict["determination"]
+        summary = None
+        if sections is not None:
+            summary, more, drawn = sections(results)
+            blocks += more
+            figures += drawn
+        return summary, blocks, figures
+
+    return all_sections
