@@ -327,6 +327,37 @@ def test_a_ctrl_c_while_the_workers_start_is_not_lost(tmp_path):
     assert proc.returncode == 0 and proc.stdout.strip() == "1", proc.stdout + proc.stderr
 
 
+WAKEUP_AFTER_CLOSE = """
+import os
+from xcheck.pool import make_pool, stop_pool
+if __name__ == "__main__":
+    pool = make_pool(1)
+    pool.submit(len, [1]).result()
+    wakeup = pool._executor_manager_thread_wakeup
+    stop_pool(pool)
+    r, w = os.pipe()
+    os.close(r)
+    os.close(w)
+    wakeup._closed, wakeup._writer._handle = False, w  # closed underneath, as by the thread still ending
+    try:
+        wakeup.wakeup()  # what concurrent.futures does at exit
+        print("quiet")
+    finally:
+        wakeup._writer._handle, wakeup._closed = None, True
+"""
+
+
+@linux_only
+def test_the_exit_wake_up_of_a_stopped_pool_is_quiet(tmp_path):
+    """Python 3.11 wakes the pool's thread at exit through a pipe that the thread closes as it ends, without a lock:
+    a SIGTERM test once printed "Exception ignored ... OSError: Bad file descriptor" after xcheck's message. A
+    stopped pool's wake-up is quiet (the script's descriptor is closed on purpose)."""
+    script = tmp_path / "wakeup.py"
+    script.write_text(WAKEUP_AFTER_CLOSE)
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0 and proc.stdout.strip() == "quiet", proc.stdout + proc.stderr
+
+
 def test_an_interrupt_inside_a_string_exec_still_exits_130(tmp_path):
     """A Ctrl-C that lands while a module imports often lands in a string ``exec`` (dataclasses make their methods
     so): CPython then ends ``python -m`` by the signal after xcheck has handled it (exit -2, seen at 0.5 s into a

@@ -55,6 +55,7 @@ def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 2.0) -> None:
     """Stop ``pool`` now: cancel what has not started, terminate the workers (SIGTERM, then SIGKILL after
     ``grace`` seconds) and wait for them, so that nothing they write can land after this returns."""
     procs = list((getattr(pool, "_processes", None) or {}).values())  # the executor's own record of its workers
+    wakeup = getattr(pool, "_executor_manager_thread_wakeup", None)  # shutdown() forgets it (see the end)
     if not all(f.done() for f in getattr(pool, "starting", ())):
         # a worker still starting (an input refused at once) is killed before the executor closes the pipes it
         # is reading and writing: it printed a traceback of its own (BrokenPipeError) on the way out
@@ -83,6 +84,21 @@ def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 2.0) -> None:
     thread = getattr(pool, "_executor_manager_thread", None)
     if thread is not None:
         thread.join(grace)
+    # at exit, concurrent.futures wakes that thread through a pipe the thread closes as it ends, without a lock
+    # between the two (Python 3.11): a thread still ending then makes the wake-up write to a closed descriptor,
+    # printed as "Exception ignored ... OSError: Bad file descriptor" after our message. The pool is stopped:
+    # there is nothing left to wake.
+    if wakeup is not None:
+        wakeup.wakeup = _quiet(wakeup.wakeup)
+
+
+def _quiet(wake):
+    def wakeup():
+        try:
+            wake()
+        except OSError:  # its pipe closed by the thread it wakes, which has ended
+            pass
+    return wakeup
 
 
 def ready_workers(pool) -> int:

@@ -111,8 +111,12 @@ class StampedFolder:
         remove_stale(self.out_root)
         self.tmp = self.out_root / f"{_INCOMPLETE}{self.stamp}-{_owner()}"
         shutil.rmtree(self.tmp, ignore_errors=True)
-        self.tmp.mkdir()
-        return self.tmp
+        try:
+            self.tmp.mkdir()
+            return self.tmp
+        except BaseException:  # an interrupt between the mkdir and the with-block (no __exit__ for it)
+            _finish_despite_interrupts(lambda: shutil.rmtree(self.tmp, ignore_errors=True))
+            raise
 
     def __exit__(self, exc_type, exc, tb):
         try:
