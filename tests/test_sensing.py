@@ -227,3 +227,10 @@ def test_a_field_that_turns_onto_the_sun_fails_one_check_not_the_study(tmp_path)
     assert all("not determinable along this run" in c["text"] and "parallel" in c["text"] for c in failed), failed
     assert [lv["name"] for lv in data["levels"]] == names and all(not lv["methods"] for lv in data["levels"])
     assert data["approach"] is not None  # the approach study places the sun itself: it stands
+
+
+def test_a_sun_direction_of_any_length(tmp_path):
+    """Found by the property test: components of 1e308 overflowed the norm (exit 3). Truth: the unit vector."""
+    path = _scenario(tmp_path, '[torque]\nkind = "magnetic"\nfield = "orbit-dipole"\n',
+                     "[determination]\nsun_direction = [1e308, 1e308, 1e308]\n")
+    np.testing.assert_allclose(load_scenario(path).determination.sun_direction, [3 ** -0.5] * 3, rtol=1e-15)

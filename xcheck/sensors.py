@@ -77,8 +77,9 @@ def read_determination(reader, duration: float, torque: dict | None = None) -> D
     if seed < 0:
         reader.fail("seed", f"expected a non-negative whole number, got {seed}")
     sun = reader.get("sun_direction", ("vector", 3), np.array(d.sun_direction))
-    if not np.linalg.norm(sun) > 0:
+    if not np.max(np.abs(sun)) > 0:
         reader.fail("sun_direction", "a zero vector has no direction")
+    sun = sun / np.max(np.abs(sun))  # any length: 1e308 components would overflow the norm below
     methods = tuple(reader.get("methods", "strings", list(d.methods)))
     for m in methods:
         if m not in det.METHODS:
