@@ -125,6 +125,20 @@ def _case(root):
     return tmp
 
 
+def _overwrite(data: bytearray, where: float, blob: bytes) -> None:
+    """``blob`` over ``data`` at the relative position ``where`` (cut at the end)."""
+    start = int(where * (len(data) - 1))
+    data[start:start + len(blob)] = blob[:len(data) - start]
+
+
+def _run(capsys, args) -> int:
+    """``xcheck args`` here: its exit code, once it is known to be 0, 1 or 2 with no traceback."""
+    capsys.readouterr()
+    code = main(args)
+    _no_traceback(code, capsys.readouterr(), args)
+    return code
+
+
 def _no_traceback(code, out, args):
     if os.environ.get("XCHECK_FUZZ_LOG"):  # what the examples came to, for a long run by hand
         with open(os.environ["XCHECK_FUZZ_LOG"], "a") as f:
@@ -156,9 +170,7 @@ def test_sweep_specs(playground, capsys, doc):
     tracemalloc.stop()
     assert peak < 50e6, peak
     args = ["sweep", str(spec), "--out", str(tmp / "out"), "--jobs", "1", "--max-cells", "6"]
-    capsys.readouterr()
-    code = main(args)
-    _no_traceback(code, capsys.readouterr(), args)
+    _run(capsys, args)
 
 
 DETERMINATION_KEYS = ["method", "dt", "seed", "sun_direction", "methods", "approach_angles_deg", "approach_noise",
@@ -200,9 +212,7 @@ def test_determination_tables(playground, capsys, spec, field):
     path = tmp / "s.toml"
     path.write_text(text)
     args = ["determine", str(path), "--json", str(tmp / "d.json")]
-    capsys.readouterr()
-    code = main(args)
-    _no_traceback(code, capsys.readouterr(), args)
+    code = _run(capsys, args)
     if code in (0, 1):  # a study that ran wrote numbers, never NaN (allow_nan=False would have refused it)
         json.loads((tmp / "d.json").read_text())
 
@@ -230,15 +240,12 @@ def test_damaged_histories(playground, capsys, history, damage):
     shutil.copy(history, path)
     data = bytearray(path.read_bytes())
     for where, size, byte in damage:
-        start = int(where * (len(data) - 1))
-        data[start:start + size] = byte * len(data[start:start + size])
+        _overwrite(data, where, byte * size)
     path.write_bytes(bytes(data))
     before = path.read_bytes()
     args = ["nightly", "--quick", "--workers", "1", "--speed-drop", "1", str(tmp / "base.toml"), "--out",
             str(tmp / "out"), "--history", str(path)]
-    capsys.readouterr()
-    code = main(args)
-    _no_traceback(code, capsys.readouterr(), args)
+    code = _run(capsys, args)
     if code == 2:
         assert path.read_bytes() == before
     else:
@@ -288,14 +295,11 @@ def test_resume_logs(playground, capsys, interrupted_log, cut, flips, extra):
     log.parent.mkdir(parents=True)
     data = bytearray(interrupted_log[:max(1, int(cut * len(interrupted_log)))] if cut < 0.95 else interrupted_log)
     for where, blob in flips:
-        start = int(where * (len(data) - 1))
-        data[start:start + len(blob)] = blob
+        _overwrite(data, where, blob)
     text = bytes(data) + "".join(line + "\n" for line in extra).encode("utf-8", "surrogatepass")
     log.write_bytes(text)
     args = ["sweep", str(tmp / "small.toml"), "--out", str(tmp / "out"), "--jobs", "1", "--resume"]
-    capsys.readouterr()
-    code = main(args)
-    _no_traceback(code, capsys.readouterr(), args)
+    code = _run(capsys, args)
     if code == 2:
         assert log.read_bytes() == text
     else:

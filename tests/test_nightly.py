@@ -91,26 +91,6 @@ def test_two_runs_then_an_injected_regression_exits_1_and_names_it(tmp_path):
     assert runs[2]["report"] == str((out / "latest").resolve())
 
 
-@pytest.mark.parametrize("make, words", [
-    (lambda p: p.write_bytes(b"SQLite format 3\x00" + b"\x13" * 3000), "not an xcheck history"),
-    (lambda p: sqlite3.connect(p).execute("CREATE TABLE invoices (id INTEGER)").connection.commit(),
-     "not an xcheck history (no xcheck_meta table; it has invoices)"),
-    (lambda p: (H.open_history(p).close(), sqlite3.connect(p).execute(
-        f"UPDATE xcheck_meta SET value = '{H.SCHEMA_VERSION + 1}' WHERE key = 'schema_version'").connection.commit()),
-     f"written by a newer xcheck (history schema {H.SCHEMA_VERSION + 1}"),
-])
-def test_a_bad_history_exits_2_before_any_work_and_is_left_untouched(tmp_path, make, words):
-    history = tmp_path / "h.sqlite"
-    make(history)
-    scenario = _scenario_copy(tmp_path)
-    before = _files(tmp_path)
-    proc = _nightly(scenario, "--out", tmp_path / "reports", "--history", history)
-    assert proc.returncode == 2, proc.stdout + proc.stderr
-    assert proc.stderr.startswith(f"xcheck: error: {history}: ") and words in proc.stderr
-    assert "Traceback" not in proc.stderr
-    assert _files(tmp_path) == before  # no report written either: the history is checked first
-
-
 def _history_with_rows(path: Path, rows: int = 20000) -> None:
     """A history with one run and enough metrics to fill many pages (the nightly's would)."""
     H.open_history(path).close()
@@ -142,15 +122,23 @@ def _sql(statement):
 
 
 @pytest.mark.parametrize("make, words", [
-    (lambda p: (_history_with_rows(p), _overwrite_page(p, "middle")), "damaged"),
-    (lambda p: (_history_with_rows(p), _overwrite_page(p, "last")), "damaged"),
+    (lambda p: p.write_bytes(b"SQLite format 3\x00" + b"\x13" * 3000), "not an xcheck history"),
+    (lambda p: sqlite3.connect(p).execute("CREATE TABLE invoices (id INTEGER)").connection.commit(),
+     "not an xcheck history (no xcheck_meta table; it has invoices)"),
+    (lambda p: (H.open_history(p).close(), sqlite3.connect(p).execute(
+        f"UPDATE xcheck_meta SET value = '{H.SCHEMA_VERSION + 1}' WHERE key = 'schema_version'").connection.commit()),
+     f"written by a newer xcheck (history schema {H.SCHEMA_VERSION + 1}"),
+    # issue 24, item 5: damaged histories
+    (lambda p: (_history_with_rows(p), _overwrite_page(p, "middle")), "damaged"),  # a page of metrics
+    (lambda p: (_history_with_rows(p), _overwrite_page(p, "last")), "damaged"),  # an index's page
     (_sql("UPDATE xcheck_meta SET value = 'abc' WHERE key = 'schema_version'"),
      "damaged: its schema_version 'abc' is not a number"),
     (_sql("DROP TABLE runs"), "damaged: an xcheck history without its runs table"),
     (_sql("DROP TABLE metrics"), "damaged: an xcheck history without its metrics table"),
-], ids=["a page of metrics", "an index page", "schema_version", "no runs", "no metrics"])
-def test_a_damaged_history_exits_2_before_any_work_and_is_left_untouched(tmp_path, make, words):
-    """Issue 24, item 5: refused before the run (no report folder), exit 2, the file untouched."""
+])
+def test_a_bad_history_exits_2_before_any_work_and_is_left_untouched(tmp_path, make, words):
+    """Refused before the run (no report folder either: the history is checked first), exit 2, the file
+    untouched."""
     history = tmp_path / "h.sqlite"
     make(history)
     scenario = _scenario_copy(tmp_path)

@@ -223,19 +223,16 @@ def _cmd_converge(args) -> int:
 
 def _converge(args, pool) -> int:
     from .report.io import check_output_dir, check_output_file, write_json_atomic
+    from .runners import RUNNERS
     from .scenario import resolve_scenario
-    from .study import run_study
+    from .study import default_methods, run_study
 
     scenario = resolve_scenario(args.scenario)
     methods = _methods_arg(args.methods) if args.methods is not None else None
     steps = _steps_arg(args.steps, scenario) if args.steps is not None else None
-    from .runners import RUNNERS
-    from .study import default_methods
-
-    for m in (methods or default_methods(scenario)) if steps else ():
-        if m in RUNNERS:
-            for dt in steps:
-                _clock_note(RUNNERS[m], dt, "--steps")
+    for m in (methods or default_methods(scenario)) if steps else ():  # an unknown name: run_study's refusal
+        for dt in steps if m in RUNNERS else ():
+            _clock_note(RUNNERS[m], dt, "--steps")
     if args.json:
         check_output_file(args.json, "--json", suffixes=(".json",))
     if args.out:
@@ -426,7 +423,7 @@ def _cmd_bench(args) -> int:
 def _cmd_sweep(args) -> int:
     """A sweep: every cell a cross-check (see :mod:`xcheck.sweep` and :mod:`xcheck.sweep_run`)."""
     from .report.io import check_output_dir
-    from .sweep import resolve_sweep
+    from .sweep import MAX_CELLS, resolve_sweep
     from .sweep_run import PARTIAL_LOG, run_sweep
 
     if args.jobs is not None and args.jobs < 1:
@@ -435,7 +432,7 @@ def _cmd_sweep(args) -> int:
         raise UsageError("--scheduler: only with --executor dask")
     if args.max_cells is not None and args.max_cells < 1:
         raise UsageError(f"--max-cells: expected a positive number of cells, got {args.max_cells}")
-    spec = resolve_sweep(args.spec, **({} if args.max_cells is None else {"max_cells": args.max_cells}))
+    spec = resolve_sweep(args.spec, max_cells=MAX_CELLS if args.max_cells is None else args.max_cells)
     check_output_dir(args.out, "--out")
     cpus = os.cpu_count() or 1
     jobs = min(args.jobs or cpus, cpus)
@@ -644,12 +641,13 @@ def main(argv: list[str] | None = None) -> int:
                      *(((signal.SIGALRM, _on_alarm),) if hasattr(signal, "SIGALRM") else ()))]
     previous_hook, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
     try:
+        parser = build_parser()
         try:
-            args = build_parser().parse_args(argv)
+            args = parser.parse_args(argv)
         except SystemExit as exc:  # argparse's own usage errors (exit 2, message printed), --help, --version
             return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
         if not hasattr(args, "func"):
-            build_parser().print_help()
+            parser.print_help()
             return EXIT_BAD_INPUT
         if getattr(args, "workers", None) is not None and args.workers < 1:
             print("xcheck: error: --workers: expected a positive number of processes", file=sys.stderr)

@@ -297,8 +297,9 @@ class History:
         try:
             self.db.check_intact(self.con)
             if not self.empty:
-                for table in ("runs", "metrics"):
-                    self._execute(f"SELECT * FROM {table}").fetchall()  # a value SQLite cannot decode, too
+                for table in ("runs", "metrics"):  # every row decoded (a value SQLite cannot read, too), none kept
+                    for _ in self._execute(f"SELECT * FROM {table}"):
+                        pass
         except self.db.errors as exc:
             raise HistoryError(f"{self.where}: damaged, it cannot be read ({exc}); restore it from a copy or give "
                                "another --history") from None

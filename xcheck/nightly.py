@@ -9,9 +9,12 @@ nights stays in the series: catching what it changed is the point.
 
 from __future__ import annotations
 
+import json
+import os
 import shutil
 import socket
 import subprocess
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -209,10 +212,6 @@ def run_nightly(scenarios, out, *, location, baseline: int | None = None, last: 
     history at ``location`` (checked here first, before any work): the other MuJoCo ``versions`` first, each in
     its environment, then the report with its History section, then one transaction for every run, then
     ``keep``. ``written(folder)`` as soon as the report folder is complete."""
-    import json
-    import os
-    import time
-
     from .report.build import build_report
 
     check_history(location, baseline)

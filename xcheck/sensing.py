@@ -93,10 +93,9 @@ def run_determination(scenario, spec: DeterminationSpec | None = None) -> tuple[
                "first": None, "predicted_rms": None, "methods": {}}
         try:
             first, pred, solved = _solve(level, sun_world, B_body, B_world, R, traj.q, spec.methods, rng)
-        except (det.DeterminationError, np.linalg.LinAlgError) as exc:  # geometry only the run knows (a field
-            # that turns onto the sun's direction): this level fails its check; the rest of the report stands
-            checks.append({"name": f"{level.name}: an attitude at every sample", "passed": False,
-                           "text": f"not determinable along this run: {_why(exc)}"})
+        except UNDETERMINABLE as exc:  # geometry only the run knows (a field that turns onto the sun's
+            # direction): this level fails its check; the rest of the report stands
+            checks.append(_undeterminable(f"{level.name}: an attitude at every sample", exc))
             levels.append(row)
             series["levels"][level.name] = {"errors": {}, "predicted_rms": None}
             continue
@@ -123,9 +122,8 @@ def run_determination(scenario, spec: DeterminationSpec | None = None) -> tuple[
     if spec.approach_noise:
         try:
             approach = _approach(spec, traj, R, B_body, B_world, rng)
-        except (det.DeterminationError, np.linalg.LinAlgError) as exc:
-            checks.append({"name": "the approach study", "passed": False,
-                           "text": f"not determinable along this run: {_why(exc)}"})
+        except UNDETERMINABLE as exc:
+            checks.append(_undeterminable("the approach study", exc))
     data = {"scenario": scenario.name, "truth": {"method": spec.method, "dt": spec.dt, "samples": T,
                                                  "duration": float(traj.t[-1])},
             "magnetometer": source, "sun_direction": list(spec.sun_direction),
@@ -135,10 +133,15 @@ def run_determination(scenario, spec: DeterminationSpec | None = None) -> tuple[
     return data, series
 
 
-def _why(exc) -> str:
-    if isinstance(exc, np.linalg.LinAlgError):
-        return "the predicted error's information matrix is singular (the two directions are parallel)"
-    return str(exc)
+#: What a sample the run made undeterminable raises: the solvers' refusal, or the prediction's singular matrix.
+UNDETERMINABLE = (det.DeterminationError, np.linalg.LinAlgError)
+
+
+def _undeterminable(name: str, exc) -> dict:
+    """The failed check of a part of the study that cannot be solved along this run, with the reason."""
+    why = ("the predicted error's information matrix is singular (the two directions are parallel)"
+           if isinstance(exc, np.linalg.LinAlgError) else str(exc))
+    return {"name": name, "passed": False, "text": f"not determinable along this run: {why}"}
 
 
 def _approach(spec, traj, R, B_body, B_world, rng) -> dict:

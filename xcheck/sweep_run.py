@@ -140,7 +140,7 @@ def record_problem(rec) -> str | None:
     for key, kind in (("id", str), ("params", dict), ("passed", bool), ("methods", dict), ("checks", list),
                       ("timings", dict)):
         if not isinstance(rec.get(key), kind):
-            return f"{key!r} missing or not a {kind.__name__}" if key in rec else f"no {key!r}"
+            return f"{key!r} is not a {kind.__name__}" if key in rec else f"no {key!r}"
     if rec["id"] != cell_id(rec["params"]):
         return f"its id {rec['id']!r} is not the digest of its params"
     if not rec["methods"]:
@@ -156,7 +156,7 @@ def record_problem(rec) -> str | None:
                 return f"a run of {name!r}: {bad[0]} is {r[bad[0]]!r}, not a number"
         if not _number(m.get("observed_order")):
             return f"method {name!r}: observed_order is {m['observed_order']!r}, not a number"
-    if not all(_number(rec["timings"].get(k)) and k in rec["timings"] for k in ("context", "reference", "compute")):
+    if not all(k in rec["timings"] and _number(rec["timings"][k]) for k in ("context", "reference", "compute")):
         return "timings without numbers for context, reference and compute"
     return None
 
@@ -481,7 +481,7 @@ def _is_a_scheduler(address: str) -> None:
                          f"{SCHEDULER_SECONDS} s ({type(exc).__name__}{f': {exc}' if str(exc) else ''})") from None
     if not isinstance(reply, dict) or reply.get("type") != "Scheduler":
         what = reply.get("type") if isinstance(reply, dict) else type(reply).__name__
-        raise SweepError(f"--scheduler {address}: a Dask {what}, not a scheduler") from None
+        raise SweepError(f"--scheduler {address}: a Dask {what}, not a scheduler")
 
 
 # ------------------------------------------------------------------------------------------------------
