@@ -182,6 +182,43 @@ def test_golden_comparison_allows_blas_round_off_and_nothing_more():
     assert len(compare(doc, want)) == 1
 
 
+def test_golden_comparison_of_interpolated_steps_and_of_prose():
+    """A step within a tolerance may move by round-off over the tolerance (1e-15 / 1e-9 = 1e-6 relative with an
+    exact reference), not by 1e-4; a determination check's text may move its round-off numbers (1e-15 rad), not
+    its words or its noisy RMS (1e-3 relative)."""
+    from golden import GOLDEN, compare
+
+    want = json.loads(GOLDEN.read_text())
+    j = next(i for i, s in enumerate(want["scenarios"]) if s["scenario"] == "tumbler-intermediate-axis")
+    assert want["scenarios"][j]["reference"] == "exact"
+
+    def edited(edit):
+        doc = json.loads(GOLDEN.read_text())
+        edit(doc)
+        return compare(doc, want)
+
+    def step(doc, factor):
+        within = doc["scenarios"][j]["methods"]["lie-rkmk4"]["largest_step_within"]
+        within["1e-09"] *= factor
+
+    assert edited(lambda d: step(d, 1 + 4e-8)) == []
+    assert len(edited(lambda d: step(d, 1 + 1e-4))) == 1
+    checks = want["determination"][0]["checks"]
+    free = next(n for n in checks if "noise-free" in n)
+    noisy = next(n for n in checks if "RMS error as predicted" in n)
+
+    def text(doc, name, old, new):
+        c = doc["determination"][0]["checks"][name]
+        assert old in c["text"]
+        c["text"] = c["text"].replace(old, new)
+
+    number = checks[free]["text"].split()[2]  # "largest error 1.50e-15 rad (limit 1e-10)"
+    assert edited(lambda d: text(d, free, number, f"{float(number) + 3e-16:.2e}")) == []
+    assert len(edited(lambda d: text(d, free, "largest", "smallest"))) == 1
+    rms = checks[noisy]["text"].split()[1]  # "RMS 2.659e-02 rad, ..."
+    assert len(edited(lambda d: text(d, noisy, rms, f"{float(rms) * 1.01:.3e}"))) == 1
+
+
 class _Collector(HTMLParser):
     def __init__(self):
         super().__init__()

@@ -356,9 +356,11 @@ def test_ctrl_c_in_a_dask_sweep_ends_it_promptly_and_quietly(tmp_path):
 
     spec = _spec(tmp_path, 'base = "gyroscope-nonsingular"\n[axes.rate_scale]\nrange = [0.5, 2.0]\nnum = 40\n',
                  "long.toml")
-    # the cluster computing. While it starts (1.0-1.6 s) a Ctrl-C was once lost in CI (the sweep ran on): an open
-    # defect, not reproduced here (the tracebacks of that window are gone: checked by hand, see the session note)
-    for delay in (3.0,):
+    # the cluster starting (its workers forked at 1.0-3 s, later on a loaded machine), then computing. A Ctrl-C
+    # while a worker was forked was lost (2 in 8 at 2.5-3 s with both cores busy: SIGINT was ignored around each
+    # fork); now the forking thread blocks it instead, and 10 in 10 ended. A Ctrl-C while the cluster starts waits
+    # for the start to finish (a half-built cluster fails its own close): seconds, 6 s seen under full load.
+    for delay in (1.5, 3.0):
         proc = subprocess.Popen([sys.executable, "-m", "xcheck", "sweep", str(spec), "--out", str(tmp_path / "out"),
                                  "--executor", "dask", "--jobs", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                 text=True, start_new_session=True,
@@ -368,7 +370,7 @@ def test_ctrl_c_in_a_dask_sweep_ends_it_promptly_and_quietly(tmp_path):
         t0 = time.monotonic()
         _, err = proc.communicate(timeout=60)
         assert proc.returncode == 130 and "Traceback" not in err and "interrupted" in err, (delay, err)
-        assert time.monotonic() - t0 < 5, (delay, time.monotonic() - t0, err)
+        assert time.monotonic() - t0 < 20, (delay, time.monotonic() - t0, err)  # a hang, not a speed
 
 
 def test_a_partial_log_that_is_a_folder_is_named(tmp_path, capsys):

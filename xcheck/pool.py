@@ -9,7 +9,6 @@
 
 from __future__ import annotations
 
-import ctypes
 import multiprocessing
 import os
 import signal
@@ -123,13 +122,13 @@ def _start_workers(pool: ProcessPoolExecutor, modules=()) -> None:
     before its initializer has made it ignore SIGINT (it would break the pool). ``pool.starting`` holds those
     tasks: one done is a worker ready.
 
-    On Linux SIGINT is ignored only while each worker is forked (:func:`spawned_ignoring_sigint`, a fraction of
-    a millisecond), and Python's own handler is never changed. Ignoring it for the whole start lost a Ctrl-C
-    now and then (2 in 12 at 0.2 s into a report): numpy's BLAS threads do not block SIGINT, so the kernel could
-    hand the signal to one of them while it was ignored, or Python could find it pending while its handler was
-    SIG_IGN."""
+    On Linux each worker starts with SIGINT blocked instead, by the thread that forks it, for that fork only
+    (:func:`spawned_with_sigint_blocked`), and this process's handler is never changed. Ignoring it for the whole
+    start lost a Ctrl-C now and then (2 in 12 at 0.2 s into a report): numpy's BLAS threads do not block SIGINT,
+    so the kernel could hand the signal to one of them while it was ignored, or Python could find it pending
+    while its handler was SIG_IGN."""
     if sys.platform.startswith("linux"):
-        with spawned_ignoring_sigint():
+        with spawned_with_sigint_blocked():
             pool.starting = [pool.submit(_import, modules) for _ in range(pool._max_workers)]
         return
     main_thread = threading.current_thread() is threading.main_thread()
@@ -139,22 +138,6 @@ def _start_workers(pool: ProcessPoolExecutor, modules=()) -> None:
     finally:
         if main_thread:
             signal.signal(signal.SIGINT, previous)
-
-
-class _Sigaction(ctypes.Structure):
-    """glibc's ``struct sigaction`` on Linux: handler, mask (1024 bits), flags, restorer."""
-    _fields_ = [("handler", ctypes.c_void_p), ("mask", ctypes.c_ulong * 16), ("flags", ctypes.c_int),
-                ("restorer", ctypes.c_void_p)]
-
-
-def _set_sigint(action: _Sigaction) -> _Sigaction:
-    """Set SIGINT's disposition from any thread (``signal.signal`` is the main thread's only) with glibc's
-    ``sigaction``; returns the previous one, to be given back."""
-    libc = ctypes.CDLL(None, use_errno=True)
-    old = _Sigaction()
-    if libc.sigaction(signal.SIGINT, ctypes.byref(action), ctypes.byref(old)) != 0:
-        raise OSError(ctypes.get_errno(), "sigaction")
-    return old
 
 
 @contextmanager
@@ -178,12 +161,17 @@ def interrupts_deferred():
 
 
 @contextmanager
-def spawned_ignoring_sigint():
+def spawned_with_sigint_blocked():
     """For the length of a block, every process multiprocessing spawns (from any thread: a Dask cluster spawns its
-    workers from its event loop's) starts with SIGINT ignored, as :func:`_start_workers` does for ours: a Ctrl-C
+    workers from its event loop's) starts with SIGINT blocked, as :func:`_start_workers` does for ours: a Ctrl-C
     to the process group then never lands in a worker's imports (a traceback each); this process stops them.
-    SIGINT is ignored here only while each process is forked (milliseconds). Linux (glibc); elsewhere nothing
-    changes."""
+
+    Only the spawning thread blocks SIGINT, only while it forks: the child inherits that thread's signal mask
+    through fork and exec (and no Python blocks or unblocks it at start-up), while this process's disposition
+    is never changed. A Ctrl-C meanwhile goes to another thread of this process, or waits, pending, until the
+    fork is done; it is never dropped. Ignoring it (SIG_IGN) over the same window lost 2 Ctrl-C in 8 while a
+    Dask cluster started on a loaded machine: the fork takes longer there, and a signal that arrives while it
+    is ignored is discarded. Linux; elsewhere nothing changes."""
     import multiprocessing.util as mp_util
 
     if not sys.platform.startswith("linux"):
@@ -191,14 +179,14 @@ def spawned_ignoring_sigint():
         return
     spawn = mp_util.spawnv_passfds
 
-    def ignoring(*args, **kwargs):
-        previous = _set_sigint(_Sigaction(handler=1))  # SIG_IGN
+    def blocking(*args, **kwargs):
+        previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         try:
             return spawn(*args, **kwargs)
         finally:
-            _set_sigint(previous)
+            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
-    mp_util.spawnv_passfds = ignoring
+    mp_util.spawnv_passfds = blocking
     try:
         yield
     finally:

@@ -404,12 +404,12 @@ def executor(kind: str = "local", jobs: int = 1, scheduler: str | None = None):
         with client:
             yield _Dask(client, f"the Dask cluster at {scheduler}")
         return
-    from .pool import interrupts_deferred, spawned_ignoring_sigint
+    from .pool import interrupts_deferred, spawned_with_sigint_blocked
 
     with ExitStack() as stack:
         # built whole (a Ctrl-C meanwhile is raised once it stands, and the stack closes it), its workers ignoring
         # Ctrl-C themselves: this process closes them
-        with interrupts_deferred(), spawned_ignoring_sigint():
+        with interrupts_deferred(), spawned_with_sigint_blocked():
             cluster = stack.enter_context(LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True,
                                                        dashboard_address=None, silence_logs=logging.ERROR))
             client = stack.enter_context(Client(cluster))
