@@ -21,7 +21,7 @@ from xcheck import _jit
 from xcheck.cli import main
 from xcheck.engines.mujoco import simulate
 from xcheck.fields import ConstantTorque
-from xcheck.models import BUNDLED_MODELS
+from xcheck.paths import BUNDLED_MODELS
 from xcheck.reference import ReferenceFailure, dop853_solution, exact_torque_free
 from xcheck.report import render
 
@@ -545,13 +545,14 @@ def _no_work(monkeypatch):
     """Fail the test if any study or run starts (paths must be checked before any work)."""
     import xcheck.runners
     import xcheck.study
+    import xcheck.study.context
 
     def forbidden(*a, **k):
         raise AssertionError("work started before the arguments were checked")
 
     monkeypatch.setattr(xcheck.study, "run_study", forbidden)
     monkeypatch.setattr(xcheck.study, "run_studies", forbidden)
-    monkeypatch.setattr(xcheck.study, "run_context", forbidden)
+    monkeypatch.setattr(xcheck.study.context, "run_context", forbidden)
 
 
 @pytest.fixture

@@ -20,7 +20,8 @@ from xcheck.metrics import observed_order  # noqa: E402
 from xcheck.rotations import attitude_error, quat_to_dcm  # noqa: E402
 from xcheck.runners import RUNNERS  # noqa: E402
 from xcheck.scenario import resolve_scenario  # noqa: E402
-from xcheck.study import run_context, run_study, scenario_reference  # noqa: E402
+from xcheck.study import run_study
+from xcheck.study.context import run_context, scenario_reference
 
 
 @pytest.fixture(scope="module")
@@ -197,7 +198,7 @@ def test_a_tolerance_reaches_basilisks_adaptive_integrators():
     decades of tolerance buy over two decades of error; RK4 refuses one."""
     from xcheck.engines.basilisk import simulate
     from xcheck.rotations import attitude_error
-    from xcheck.study import run_context, scenario_reference
+    from xcheck.study.context import run_context, scenario_reference
 
     sc = resolve_scenario("gyroscope-nonsingular")
     ctx, ref = run_context(sc), scenario_reference(sc)

@@ -38,9 +38,9 @@ def test_bench_cli_writes_json_and_refuses_unknown_methods(tmp_path, capsys):
 
 
 def test_bench_times_every_determination_method():
-    """Every method of xcheck.determination gets a row (solutions per second, one call on the whole stack)."""
+    """Every method of xcheck.determination.methods gets a row (solutions per second, one call on the whole stack)."""
     from xcheck.bench import _determination_rows
-    from xcheck.determination import METHODS
+    from xcheck.determination.methods import METHODS
 
     rows = _determination_rows(500, 1)
     assert [r["method"] for r in rows] == [f"{m} (determination)" for m in METHODS]

@@ -14,7 +14,7 @@ import matplotlib.image as mpimg
 import pytest
 
 from xcheck.cli import main
-from xcheck.models import BUNDLED_MODELS
+from xcheck.paths import BUNDLED_MODELS
 from xcheck.scenario import bundled_scenarios
 
 SCEN = BUNDLED_MODELS / "scenarios"

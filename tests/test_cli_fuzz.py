@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from xcheck.cli import main
-from xcheck.models import BUNDLED_MODELS
+from xcheck.paths import BUNDLED_MODELS
 from xcheck.runners import RUNNERS
 
 GYRO = str(BUNDLED_MODELS / "gyroscope.xml")

@@ -19,12 +19,11 @@ import tracemalloc
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
-from xcheck import sweep as S
-from xcheck.cli import main
-from xcheck.models import BUNDLED_MODELS
-
 from test_cli_fuzz import to_toml  # noqa: E402  (the same TOML writer)
+
+from xcheck.cli import main
+from xcheck.paths import BUNDLED_MODELS
+from xcheck.sweep import spec as S
 
 EXAMPLES = int(os.environ.get("XCHECK_FUZZ_EXAMPLES", "0"))
 
@@ -260,7 +259,7 @@ SMALL_SWEEP = 'base = "base.toml"\nmethods = ["lie-rkmk4"]\n[axes.rate_scale]\nv
 @pytest.fixture(scope="module")
 def interrupted_log(playground):
     """The log of a sweep of four cells interrupted after its first chunk."""
-    from xcheck import sweep_run as R
+    from xcheck.sweep import run as R
 
     folder = playground / "log-source"
     folder.mkdir(exist_ok=True)
@@ -287,7 +286,7 @@ def test_resume_logs(playground, capsys, interrupted_log, cut, flips, extra):
     and then every cell of the sweep is in its table."""
     import csv
 
-    from xcheck import sweep_run as R
+    from xcheck.sweep import run as R
 
     tmp = _case(playground)
     (tmp / "small.toml").write_text(SMALL_SWEEP)

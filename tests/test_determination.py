@@ -7,10 +7,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from xcheck import determination as det
+from xcheck.determination import methods as det
+from xcheck.determination.seed002 import half_unit, reproduce
 from xcheck.rotations import attitude_error, quat_to_dcm
-from xcheck.seed002 import half_unit, reproduce
-from xcheck.seeds import (SEED002_BODY, SEED002_REFERENCE, quat_to_seed002_quat, seed002_attitude_matrix)
+from xcheck.seeds import (
+    SEED002_BODY,
+    SEED002_REFERENCE,
+    quat_to_seed002_quat,
+    seed002_attitude_matrix,
+)
 
 OPTIMAL = ("q-method", "quest", "svd")
 

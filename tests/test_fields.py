@@ -4,11 +4,23 @@ import numpy as np
 import pytest
 
 from xcheck import rotations as rot
-from xcheck.fields import (MU0, SEED004_INITIAL_TORQUE, BodyFieldTable, IGRFField, MagneticTorque,
-                           OrbitDipoleField, UniformField, WorldFieldTable, load_field_table, magnetic_torque,
-                           nearest_achievable_torque, orbit_position, rax1_orbit_phase_residual,
-                           rax1_synthetic_body_table)
-from xcheck.models import BUNDLED_MODELS
+from xcheck.fields import (
+    MU0,
+    SEED004_INITIAL_TORQUE,
+    BodyFieldTable,
+    IGRFField,
+    MagneticTorque,
+    OrbitDipoleField,
+    UniformField,
+    WorldFieldTable,
+    load_field_table,
+    magnetic_torque,
+    nearest_achievable_torque,
+    orbit_position,
+    rax1_orbit_phase_residual,
+    rax1_synthetic_body_table,
+)
+from xcheck.paths import BUNDLED_MODELS
 
 M_P = np.array([0.14, 0.02, 1.09])  # seed 004 eq. 175
 P0 = np.array([-0.4583, -0.6558, 0.5997, 0.0182])  # eq. 178

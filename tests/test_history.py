@@ -10,8 +10,7 @@ import sys
 
 import pytest
 
-from xcheck import history as H
-
+from xcheck.history import store as H
 
 
 @pytest.fixture(scope="module")
@@ -175,7 +174,7 @@ def test_an_interrupted_writer_leaves_the_history_as_it_was(tmp_path, report):
         _record(hist, report[0])
     script = f"""
 import json, os, signal
-from xcheck import history as H
+from xcheck.history import store as H
 hist = H.open_history({str(path)!r})
 doc = json.loads(open({str(report[1])!r}).read())
 original = hist.con.executemany
@@ -196,7 +195,7 @@ def test_two_writers_at_once_both_land(tmp_path, report):
     H.open_history(path).close()
     script = f"""
 import json
-from xcheck import history as H
+from xcheck.history import store as H
 doc = json.loads(open({str(report[1])!r}).read())
 with H.open_history({str(path)!r}) as hist:
     for i in range(5):

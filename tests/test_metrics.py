@@ -5,7 +5,13 @@ spin are exact."""
 import numpy as np
 import pytest
 
-from xcheck.metrics import errors_against, invariant_drift, kinetic_energy, observed_order, world_momentum
+from xcheck.metrics import (
+    errors_against,
+    invariant_drift,
+    kinetic_energy,
+    observed_order,
+    world_momentum,
+)
 from xcheck.trajectory import Trajectory
 
 DTS = [2.0**-k for k in range(1, 9)]

@@ -8,7 +8,8 @@ import pytest
 from xcheck import rotations as rot
 from xcheck.engines.mujoco import simulate
 from xcheck.integrators import integrate
-from xcheck.models import BUNDLED_MODELS, ModelError, load_body
+from xcheck.models import ModelError, load_body
+from xcheck.paths import BUNDLED_MODELS
 
 GYRO = BUNDLED_MODELS / "gyroscope.xml"
 RAX1 = BUNDLED_MODELS / "rax1.xml"

@@ -12,7 +12,7 @@ from xcheck import rotations as rot
 from xcheck.engines.mujoco import control_callback, simulate
 from xcheck.fields import MagneticTorque, OrbitDipoleField
 from xcheck.metrics import observed_order
-from xcheck.models import BUNDLED_MODELS
+from xcheck.paths import BUNDLED_MODELS
 from xcheck.reference import dop853, exact_torque_free
 
 GYRO = BUNDLED_MODELS / "gyroscope.xml"

@@ -14,11 +14,10 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from permissions import as_a_user
 
-from xcheck import history as H
-from xcheck import nightly
+from xcheck.history import nightly
+from xcheck.history import store as H
 from xcheck.scenario import SCENARIO_DIR
 
 SCENARIO = "gyroscope-nonsingular"
@@ -307,7 +306,7 @@ def package_index():
 def test_the_version_matrix_runs_each_release_and_reports_the_uninstallable(tmp_path, package_index):
     """Truth: MuJoCo's changelog and a measurement, the gyroscope's RK4 is order 2 in 3.2.7 (the gyroscopic term
     of free bodies explicit) and order 4 in the installed release; 0.0.1 was never released."""
-    from xcheck.matrix import installed_mujoco
+    from xcheck.history.matrix import installed_mujoco
 
     installed = installed_mujoco()
     out = tmp_path / "reports"

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from xcheck import testing as T
-from xcheck.models import BUNDLED_MODELS
+from xcheck.paths import BUNDLED_MODELS
 from xcheck.scenario import load_scenario, resolve_scenario
 from xcheck.study import default_methods, planned_checks
 
@@ -79,6 +79,19 @@ def test_a_broken_file_is_one_failing_item_among_good_ones(pytester):
     text = result.stdout.str()
     assert "FAILED xcheck_broken.toml::scenario" in text
     assert "xcheck_broken.toml: model: expected a string, got int 3" in text  # the CLI's message
+
+
+def test_a_model_mujoco_cannot_load_fails_the_files_items_naming_it(pytester):
+    """Collection reads the file without MuJoCo (issue 25); the model is loaded as the study starts, and a model
+    MuJoCo refuses fails every item of the file with the CLI's message, naming the file and the model."""
+    (pytester.path / "bad.xml").write_text("<mujoco><worldbody><body><geom type='sphere'/></mujoco>")
+    text = GYRO.read_text().replace('"../gyroscope.xml"', '"bad.xml"')
+    (pytester.path / "xcheck_badmodel.toml").write_text(text)
+    result = _run(pytester, "-q", "-k", "lie-rkmk4")
+    out = result.stdout.str()
+    failed = result.parseoutcomes().get("failed", 0)
+    assert failed >= 1 and result.parseoutcomes().get("passed", 0) == 0, out
+    assert "xcheck_badmodel.toml: model:" in out and "bad.xml" in out, out
 
 
 def test_k_selects_a_method_and_a_check(pytester):

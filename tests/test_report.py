@@ -6,7 +6,16 @@ from html.parser import HTMLParser
 
 import pytest
 
-from xcheck.report.document import Cell, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
+from xcheck.report.document import (
+    Cell,
+    Figure,
+    Heading,
+    Para,
+    Table,
+    Verdict,
+    to_html,
+    to_markdown,
+)
 from xcheck.report.render import write_report
 from xcheck.scenario import resolve_scenario
 from xcheck.study import run_study

@@ -2,7 +2,7 @@
 xcheck.convergence/1, a method's status and finest run follow from its runs, a check's name is kind:method."""
 
 from xcheck.results import Check, MethodResult, Run, json_number
-from xcheck.study import _verdict
+from xcheck.study.checks import verdict
 
 RUN_KEYS = {"dt", "status", "attitude_error", "max_attitude_error", "omega_error", "max_omega_error", "energy_drift",
             "momentum_drift", "norm_drift", "wall_time", "steps_per_second", "repeats", "evaluations"}
@@ -35,5 +35,5 @@ def test_check_name_and_json():
 def test_verdicts():
     checks = [Check("order", True, "a"), Check("final-error", False, "b"), Check("order", True, "b"),
               Check("expected-failure", True, "c"), Check("expected-failure", False, "d")]
-    assert [_verdict(m, checks) for m in "abcde"] == ["pass", "fail", "expected", "fail", "info"]
-    assert _verdict("a", checks + [Check("reference", False)]) == "fail"
+    assert [verdict(m, checks) for m in "abcde"] == ["pass", "fail", "expected", "fail", "info"]
+    assert verdict("a", checks + [Check("reference", False)]) == "fail"

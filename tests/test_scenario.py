@@ -5,7 +5,13 @@ default steps adapt to short durations."""
 import numpy as np
 import pytest
 
-from xcheck.scenario import DEFAULT_STEPS, QUICK_STEPS, bundled_scenarios, check_name, resolve_scenario
+from xcheck.scenario import (
+    DEFAULT_STEPS,
+    QUICK_STEPS,
+    bundled_scenarios,
+    check_name,
+    resolve_scenario,
+)
 
 
 def test_every_bundled_scenario_loads():

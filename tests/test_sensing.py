@@ -10,12 +10,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from xcheck import determination as det
 from xcheck.cli import main
+from xcheck.determination import methods as det
+from xcheck.determination.sensors import (
+    DEFAULT_SPEC,
+    NoiseLevel,
+    observe,
+    predicted_rms,
+)
+from xcheck.determination.study import run_determination
 from xcheck.rotations import attitude_error, quat_to_dcm
 from xcheck.scenario import ScenarioError, load_scenario, resolve_scenario
-from xcheck.sensing import run_determination
-from xcheck.sensors import DEFAULT_SPEC, NoiseLevel, observe, predicted_rms
 
 MODELS = Path(__file__).resolve().parent.parent / "models"
 
@@ -213,7 +218,7 @@ def test_a_field_that_turns_onto_the_sun_fails_one_check_not_the_study(tmp_path)
     """Issue 24, item 7: with a field that turns, only the run knows the geometry. The sun placed exactly along
     the orbit field's direction at t = 0: no level can be solved (or its error predicted) there, which is one failed
     check per level with its reason, and no NaN; the approach study (which places the sun itself) stands."""
-    from xcheck.study import run_context
+    from xcheck.study.context import run_context
 
     torque = '[torque]\nkind = "magnetic"\nfield = "orbit-dipole"\n'
     field = run_context(load_scenario(_scenario(tmp_path, torque))).torque.field

@@ -12,7 +12,7 @@ import xcheck
 PACKAGE = Path(xcheck.__file__).resolve().parent
 #: The core: mathematics, integrators, references, metrics, fields (docs/architecture.md).
 CORE = ["rotations", "seeds", "body", "trajectory", "fields", "integrators", "reference", "metrics", "versions",
-        "_jit", "determination", "seed002"]
+        "_jit", "determination.methods", "determination.seed002", "determination.sensors"]
 
 
 def module_name(path: Path) -> str:
@@ -148,3 +148,25 @@ def test_the_architecture_notes_name_nothing_that_does_not_exist():
                     obj = getattr(obj, name)
                 break
     assert not missing, f"docs/architecture.md names what the code does not have: {missing}"
+
+
+COLLECT_WITHOUT_MUJOCO = """
+import sys
+import pytest
+import xcheck.scenario as S
+S.load_scenario(S.SCENARIO_DIR / "gyroscope-nonsingular.toml", check_model=False)
+after_reading = "mujoco" in sys.modules
+code = pytest.main(["--collect-only", "-q", "-p", "no:cacheprovider", str(S.SCENARIO_DIR / "tumbler-intermediate-axis.toml")])
+print(after_reading, "mujoco" in sys.modules, "matplotlib" in sys.modules, int(code))
+"""
+
+
+def test_reading_a_scenario_and_collecting_its_items_import_no_mujoco(tmp_path):
+    """Issue 25: reading a scenario (without its model check) and collecting the pytest items of a scenario file
+    load neither MuJoCo nor matplotlib; the model is loaded, and checked, when the study runs."""
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", COLLECT_WITHOUT_MUJOCO], capture_output=True, text=True, timeout=120,
+                          cwd=PACKAGE.parent)
+    assert proc.stdout.split()[-4:] == ["False", "False", "False", "0"], proc.stdout[-2000:] + proc.stderr[-2000:]

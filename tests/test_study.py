@@ -83,10 +83,11 @@ def test_a_reference_that_fails_when_evaluated_fails_the_study(scenario, monkeyp
     failure there (found on a 1000 s tumbler at 1/2048 s: 2.05e6 panels) is the study's one "reference" check,
     not an internal error. Here the bound is 60 panels: building the 10 s tumbler's reference needs 47, its
     grid at 1/8 s (81 times) needs 80."""
-    from xcheck import reference, study
+    from xcheck import reference
+    from xcheck.study import context
 
     monkeypatch.setattr(reference, "_MAX_PANELS", 60)
-    monkeypatch.setattr(study, "_CACHE", {})  # no reference of this scenario from an earlier test
+    monkeypatch.setattr(context, "_CACHE", {})  # no reference of this scenario from an earlier test
     st = run_study(scenario, methods=["lie-rkmk4"], steps=[0.125, 0.0625], workers=1)
     assert [c.name for c in st.checks] == ["reference"] and not st.passed
     assert "quadrature panels (at most 60)" in st.checks[0].note
@@ -140,7 +141,7 @@ def test_direct_comparison_is_the_trajectories_difference():
     import numpy as np
 
     from xcheck import rotations as rot
-    from xcheck.study import run_context
+    from xcheck.study.context import run_context
 
     sc = resolve_scenario("gyroscope-nonsingular")
     steps = [1 / 64, 1 / 128]

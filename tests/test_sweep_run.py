@@ -11,12 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from xcheck import sweep as S
-from xcheck import sweep_run as R
 from xcheck.cli import main
 from xcheck.models import load_body
 from xcheck.scenario import resolve_scenario
 from xcheck.study import run_study
+from xcheck.sweep import run as R
+from xcheck.sweep import spec as S
 
 SMALL = """
 description = "a test sweep"
@@ -401,7 +401,7 @@ def test_a_read_only_sweep_folder_is_named(tmp_path):
 
 def test_bundled_sweeps_are_valid():
     """The three example sweeps parse, with the cells the issue asks for."""
-    from xcheck.models import BUNDLED_MODELS
+    from xcheck.paths import BUNDLED_MODELS
 
     specs = {p.stem: S.load_sweep(p) for p in sorted((BUNDLED_MODELS / "sweeps").glob("*.toml"))}
     assert set(specs) == {"rax1-dipole-inertia", "gyroscope-spin-dt", "model-swap"}

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from xcheck import sweep as S
 from xcheck.scenario import SCENARIO_DIR
+from xcheck.sweep import spec as S
 
 
 def _spec(tmp_path, text: str, name="spec.toml"):

@@ -13,20 +13,21 @@ import numpy as np
 import pytest
 
 from xcheck import study
-from xcheck.history import finest_error, report_metrics
+from xcheck.history.store import finest_error, report_metrics
 from xcheck.integrators import METHODS, integrate
 from xcheck.metrics import StepWithin
 from xcheck.report.render import recommendation, scenario_summary
 from xcheck.results import MethodResult, Run
 from xcheck.runners import RUNNERS
 from xcheck.scenario import ScenarioError, load_scenario, resolve_scenario
+from xcheck.study import context, measure
 
 
 # ------------------------------------------------------------------------------------------------------
 # the repeat rule
 # ------------------------------------------------------------------------------------------------------
 class _Clock:
-    """time.perf_counter for study.timed_run: every run lasts ``run`` seconds (and the first ``first``)."""
+    """time.perf_counter for measure.timed_run: every run lasts ``run`` seconds (and the first ``first``)."""
 
     def __init__(self, run, first=None):
         self.now, self.run, self.first, self.calls = 0.0, run, first, 0
@@ -60,9 +61,9 @@ class _Runner:
 ])
 def test_short_runs_are_repeated_within_a_budget_and_the_best_kept(monkeypatch, seconds, first, repeats, best):
     clock = _Clock(seconds, first)
-    monkeypatch.setattr(study.time, "perf_counter", clock)
+    monkeypatch.setattr(measure.time, "perf_counter", clock)
     runner = _Runner(clock)
-    _, wall, n = study.timed_run(runner, None, 0.1)
+    _, wall, n = measure.timed_run(runner, None, 0.1)
     assert (n, runner.runs) == (repeats, repeats) and wall == pytest.approx(best)
 
 
@@ -72,23 +73,23 @@ def test_a_run_that_took_longer_than_one_with_more_work_is_timed_again(monkeypat
     from types import SimpleNamespace
 
     clock = _Clock(0.002)
-    monkeypatch.setattr(study.time, "perf_counter", clock)
+    monkeypatch.setattr(measure.time, "perf_counter", clock)
     runner = _Runner(clock)
     runs = [Run(0.2, wall_time=0.009, evaluations=40, repeats=1), Run(0.1, wall_time=0.004, evaluations=80, repeats=1)]
-    study._retime_outliers(runner, SimpleNamespace(duration=1.0), runs)
+    measure._retime_outliers(runner, SimpleNamespace(duration=1.0), runs)
     assert runner.runs == 1 and runs[0].wall_time == pytest.approx(0.002) and runs[0].repeats == 2
     assert runs[0].steps_per_second == pytest.approx(5 / 0.002)
     # no more work (the same evaluations): nothing to re-time
     runs = [Run(0.2, wall_time=0.009, evaluations=40), Run(0.1, wall_time=0.004, evaluations=40)]
-    study._retime_outliers(runner, SimpleNamespace(duration=1.0), runs)
+    measure._retime_outliers(runner, SimpleNamespace(duration=1.0), runs)
     assert runner.runs == 1 and runs[0].wall_time == 0.009
 
 
 def test_a_failed_run_is_not_repeated(monkeypatch):
     clock = _Clock(0.001)
-    monkeypatch.setattr(study.time, "perf_counter", clock)
+    monkeypatch.setattr(measure.time, "perf_counter", clock)
     runner = _Runner(clock, ok=False)
-    assert study.timed_run(runner, None, 0.1)[2] == 1 and runner.runs == 1
+    assert measure.timed_run(runner, None, 0.1)[2] == 1 and runner.runs == 1
 
 
 # ------------------------------------------------------------------------------------------------------
@@ -96,7 +97,7 @@ def test_a_failed_run_is_not_repeated(monkeypatch):
 # ------------------------------------------------------------------------------------------------------
 def test_evaluations_are_four_a_step_for_every_rk4_and_one_for_mujocos_euler():
     sc = resolve_scenario("tumbler-intermediate-axis")
-    ctx = study.run_context(sc)
+    ctx = context.run_context(sc)
     n = round(sc.duration / 0.125)
     for name, m in METHODS.items():
         if m.kernel is not None:
@@ -141,7 +142,7 @@ def test_an_adaptive_method_is_studied_over_its_tolerances_against_the_exact_sol
 def test_the_default_rung_of_scipy_rk45_is_seed_001s_run():
     """rtol 1e-3 is solve_ivp's default: the same numbers as a run without a tolerance."""
     sc = resolve_scenario("gyroscope-nonsingular")
-    ctx = study.run_context(sc)
+    ctx = context.run_context(sc)
     a, b = RUNNERS["scipy-rk45"].run(ctx, 0.5), RUNNERS["scipy-rk45"].run(ctx, 0.5, 1e-3)
     assert np.array_equal(a.q, b.q) and a.extras["evaluations"] == b.extras["evaluations"]
 

@@ -6,7 +6,7 @@ import pytest
 
 from xcheck.engines.mujoco import simulate
 from xcheck.integrators import integrate, integrate_batch
-from xcheck.models import BUNDLED_MODELS
+from xcheck.paths import BUNDLED_MODELS
 from xcheck.reference import dop853_solution, exact_torque_free
 from xcheck.trajectory import check_initial_state, step_plan, time_grid
 

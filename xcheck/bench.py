@@ -10,7 +10,7 @@ calls; a runner with a batch path (``run_batch``) also on 10 000 perturbed gyros
 a chunk of 10 torque-free gyroscope cells from random attitudes, one step dt = 1/1024 s, each a whole cell
 (model, exact reference, run, errors), ``lie-rkmk4`` batched and ``mujoco-rk4`` one cell at a time. Static
 attitude determination (rows with ``solutions_per_second``): 100 000 random two-observation problems solved in
-one call by each method of :mod:`xcheck.determination`.
+one call by each method of :mod:`xcheck.determination.methods`.
 ``--json PATH`` writes ``{"schema": "xcheck.bench/1", "versions": ..., "results": [...]}``
 with rows ``{engine, method, scenario, batch, steps_per_second}``. For an adaptive method (``scipy-rk45``) a
 "step" is a point of the output grid: the figure is how fast it delivers the same trajectory.
@@ -50,7 +50,7 @@ def run_bench(*, repeat: int = 3, batch: int = 10_000, quick: bool = False, meth
     from .engines import ENGINES
     from .runners import RUNNERS
     from .scenario import resolve_scenario
-    from .study import run_context
+    from .study.context import run_context
 
     duration = 2.0 if quick else 10.0
     nsteps = round(duration / DT)
@@ -103,13 +103,13 @@ def run_bench(*, repeat: int = 3, batch: int = 10_000, quick: bool = False, meth
 
 
 def _sweep_cells(method: str, duration: float, repeat: int, cells: int = 10) -> tuple[int, float]:
-    """(cells, best seconds) of :func:`xcheck.sweep_run.run_chunk` on ``cells`` torque-free gyroscope cells at
+    """(cells, best seconds) of :func:`xcheck.sweep.run.run_chunk` on ``cells`` torque-free gyroscope cells at
     one step; the per-process caches of contexts and references are cleared before each timing, so that every
     cell pays for its model and reference as in a sweep."""
-    from . import study
     from .scenario import resolve_scenario
-    from .sweep import apply_cell, random_quaternions
-    from .sweep_run import run_chunk
+    from .study import context
+    from .sweep.run import run_chunk
+    from .sweep.spec import apply_cell, random_quaternions
 
     base = dataclasses.replace(resolve_scenario("gyroscope-nonsingular"), duration=duration)
     q = random_quaternions(cells, np.random.default_rng(0))
@@ -117,15 +117,15 @@ def _sweep_cells(method: str, duration: float, repeat: int, cells: int = 10) -> 
     run_chunk(chunk[:2], [method], (DT,))  # compile and load outside the timing
 
     def once():
-        study._CACHE.clear()
+        context._CACHE.clear()
         run_chunk(chunk, [method], (DT,))
     return cells, _best(once, repeat)
 
 
 def _determination_rows(n: int, repeat: int) -> list[dict]:
-    """Static attitude determination (:mod:`xcheck.determination`): ``n`` random two-observation problems
+    """Static attitude determination (:mod:`xcheck.determination.methods`): ``n`` random two-observation problems
     (noisy directions of random attitudes) solved in one call per method; a "step" is one solution."""
-    from .determination import METHODS
+    from .determination.methods import METHODS
     from .rotations import quat_to_dcm
 
     rng = np.random.default_rng(0)

@@ -151,8 +151,7 @@ def _methods_arg(text):
 def _cmd_list(args) -> int:
     from .runners import RUNNERS
     from .scenario import ScenarioError, bundled_scenarios, load_scenario
-
-    from .sweep import bundled_sweeps, load_sweep
+    from .sweep.spec import bundled_sweeps, load_sweep
 
     for title, files, load in (("Bundled scenarios (models/scenarios/):", bundled_scenarios(), load_scenario),
                                ("\nBundled sweeps (models/sweeps/; xcheck sweep NAME):", bundled_sweeps(), load_sweep)):
@@ -262,7 +261,7 @@ def _cmd_run(args) -> int:
     from .report.io import check_output_file, write_trajectory_csv
     from .runners import RUNNERS
     from .scenario import resolve_scenario
-    from .study import run_context, scenario_reference
+    from .study.context import run_context, scenario_reference
     from .trajectory import check_step
 
     scenario = resolve_scenario(args.scenario)
@@ -356,8 +355,8 @@ def _cmd_report(args) -> int:
 
 
 def _cmd_nightly(args) -> int:
-    """The full report, compared with the history, then recorded in it (see :mod:`xcheck.nightly`)."""
-    from . import nightly
+    """The full report, compared with the history, then recorded in it (see :mod:`xcheck.history.nightly`)."""
+    from .history import nightly
     from .report.build import resolve_scenarios
     from .report.io import check_output_dir
 
@@ -373,7 +372,7 @@ def _cmd_nightly(args) -> int:
                                       speed_drop=args.speed_drop)
     versions = []
     if args.mujoco:
-        from .matrix import parse_versions
+        from .history.matrix import parse_versions
 
         try:
             versions = parse_versions(args.mujoco)
@@ -421,10 +420,10 @@ def _cmd_bench(args) -> int:
 
 
 def _cmd_sweep(args) -> int:
-    """A sweep: every cell a cross-check (see :mod:`xcheck.sweep` and :mod:`xcheck.sweep_run`)."""
+    """A sweep: every cell a cross-check (see :mod:`xcheck.sweep.spec` and :mod:`xcheck.sweep.run`)."""
     from .report.io import check_output_dir
-    from .sweep import MAX_CELLS, resolve_sweep
-    from .sweep_run import PARTIAL_LOG, run_sweep
+    from .sweep.run import PARTIAL_LOG, run_sweep
+    from .sweep.spec import MAX_CELLS, resolve_sweep
 
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs: expected a positive number of processes, got {args.jobs}")
@@ -469,14 +468,14 @@ def _cmd_determine(args) -> int:
     if args.seed002 == bool(args.scenario):
         raise UsageError("give a SCENARIO (its [determination] study) or --seed002 (the seed's tables), one of them")
     if args.seed002:
-        from .seed002 import report_lines, reproduce
+        from .determination.seed002 import report_lines, reproduce
 
         rep = reproduce()
         print("\n".join(report_lines(rep)))
         return EXIT_OK if rep["passed"] else EXIT_CHECK_FAILED
+    from .determination.sensors import DEFAULT_SPEC
+    from .determination.study import run_determination
     from .scenario import resolve_scenario
-    from .sensing import run_determination
-    from .sensors import DEFAULT_SPEC
 
     scenario = resolve_scenario(args.scenario)
     if args.json:
@@ -604,7 +603,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="keep the cells an interrupted (or the latest) run of this spec finished; run the rest")
     p.add_argument("--max-cells", type=int, default=None, metavar="N",
                    help="refuse a spec of more cells than this, before building any (default 100,000: "
-                        "xcheck.sweep.MAX_CELLS)")
+                        "xcheck.sweep.spec.MAX_CELLS)")
     p.add_argument("--executor", choices=("local", "dask"), default="local",
                    help="local processes, or a Dask distributed cluster (pip install 'xcheck[distributed]')")
     p.add_argument("--scheduler", metavar="ADDRESS",
@@ -680,7 +679,7 @@ def _interrupted(exc: KeyboardInterrupt, written) -> int:
 
 #: The errors a user can cause, by the module that raises them (imported only by the commands that use them).
 USER_ERRORS = (("xcheck.scenario", "ScenarioError"), ("xcheck.models", "ModelError"), ("xcheck.report.io",
-               "OutputPathError"), ("xcheck.history", "HistoryError"), ("xcheck.determination", "DeterminationError"))
+               "OutputPathError"), ("xcheck.history.store", "HistoryError"), ("xcheck.determination.methods", "DeterminationError"))
 
 
 def _user_errors() -> tuple:
@@ -692,7 +691,9 @@ def _user_errors() -> tuple:
 def _run(args) -> int:
     """``args.func(args)`` with every failure a user can cause turned into a message and an exit code."""
     _WRITTEN.clear()  # nothing written yet by this command
-    from concurrent.futures.process import BrokenProcessPool  # an interrupt here is main's to report
+    from concurrent.futures.process import (
+        BrokenProcessPool,  # an interrupt here is main's to report
+    )
 
     try:
         try:

@@ -18,23 +18,10 @@ import numpy as np
 from . import rotations as rot
 from .body import RigidBody
 
-__all__ = ["ModelError", "MJCFBody", "load_body", "load_mujoco", "DIPOLE_NUMERIC", "BUNDLED_MODELS"]
+__all__ = ["ModelError", "MJCFBody", "load_body", "load_mujoco", "DIPOLE_NUMERIC"]
 
 #: The name of the ``<custom><numeric>`` that holds the permanent dipole [A m^2].
 DIPOLE_NUMERIC = "xcheck_dipole"
-
-def _bundled_folder() -> Path:
-    """The bundled models: the repository's top-level ``models/`` in a checkout, or the copy installed
-    with the package as ``xcheck/bundled``."""
-    here = Path(__file__).resolve().parent
-    for folder in (here.parent / "models", here / "bundled"):
-        if (folder / "scenarios").is_dir():
-            return folder
-    return here / "bundled"
-
-
-#: The folder of the bundled models and scenarios.
-BUNDLED_MODELS = _bundled_folder()
 
 
 class ModelError(ValueError):

@@ -82,7 +82,7 @@ class ScenarioFile(pytest.File):
 
         warnings.filterwarnings("ignore", category=UserWarning, module=r"xcheck\.models")
         try:
-            self.scenario = load_scenario(self.path)
+            self.scenario = load_scenario(self.path, check_model=False)  # MuJoCo loads when the study runs
         except ScenarioError as exc:
             yield BrokenScenario.from_parent(self, name="scenario", message=str(exc))
             return
@@ -104,9 +104,11 @@ class ScenarioFile(pytest.File):
     def study(self):
         """The scenario's study, run once (the first item to ask runs it; an error is kept and raised again)."""
         if self._study is None:
+            from .scenario import check_scenario_model
             from .study import run_study
 
             try:
+                check_scenario_model(self.scenario)
                 # a run is timed again only for --xcheck-report's figures (the checks read no wall time)
                 st = run_study(self.scenario, quick=_quick(self.config), workers=1,
                                timing=self.config.getoption("xcheck_report") is not None)

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from . import rotations as rot
-from .models import BUNDLED_MODELS
+from .paths import BUNDLED_MODELS
 from .trajectory import check_initial_state
 
 if sys.version_info >= (3, 11):
@@ -24,8 +24,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["Scenario", "ScenarioError", "load_scenario", "bundled_scenarios", "resolve_scenario", "check_name",
-           "check_steps", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
+__all__ = ["Scenario", "ScenarioError", "load_scenario", "check_scenario_model", "bundled_scenarios",
+           "resolve_scenario", "check_name", "check_steps", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
            "SCENARIO_DIR"]
 
 SCENARIO_DIR = BUNDLED_MODELS / "scenarios"
@@ -109,9 +109,9 @@ class Scenario:
     reference_dt: float = 1e-4
     checks: dict = field(default_factory=lambda: dict(DEFAULT_CHECKS))
     #: principal moments [kg m^2] replacing the model's, along its principal axes in MuJoCo's order
-    #: (``body_inertia``); None: the model's own. Set by a sweep's inertia axes (:mod:`xcheck.sweep`).
+    #: (``body_inertia``); None: the model's own. Set by a sweep's inertia axes (:mod:`xcheck.sweep.spec`).
     inertia: tuple | None = None
-    #: the [determination] table (:class:`xcheck.sensing.DeterminationSpec`); None: the scenario has none
+    #: the [determination] table (:class:`xcheck.determination.study.DeterminationSpec`); None: the scenario has none
     determination: object = None
 
 
@@ -221,8 +221,10 @@ class _Reader:
 _TOP_KEYS = ("name", "description", "model", "duration", "initial", "torque", "study", "checks", "determination")
 
 
-def load_scenario(path) -> Scenario:
-    """Read and validate a scenario TOML file (relative paths are relative to the file)."""
+def load_scenario(path, *, check_model: bool = True) -> Scenario:
+    """Read and validate a scenario TOML file (relative paths are relative to the file). ``check_model``: also
+    load the model and build the torque (:func:`check_scenario_model`, which imports MuJoCo); the pytest plugin
+    collects without it, and checks as the study starts."""
     path = Path(path)
     try:
         raw = path.read_bytes()
@@ -345,7 +347,7 @@ def load_scenario(path) -> Scenario:
 
     determination = None
     if "determination" in data:
-        from .sensors import read_determination
+        from .determination.sensors import read_determination
 
         determination = read_determination(_Reader(path, top.get("determination", "table"), "determination"),
                                            duration, torque)
@@ -356,18 +358,24 @@ def load_scenario(path) -> Scenario:
                         adaptive_step=adaptive_step, methods=methods, reference=reference,
                         reference_method=reference_method, reference_dt=reference_dt, checks=checks,
                         determination=determination)
-    # the model must load, and the torque must be buildable for this duration
+    if check_model:
+        check_scenario_model(scenario)
+    return scenario
+
+
+def check_scenario_model(scenario: Scenario) -> None:
+    """The model must load, and the torque must be buildable for the duration: :class:`ScenarioError` naming the
+    file otherwise. Imports MuJoCo (the MJCF is MuJoCo's to read)."""
     from .models import ModelError, load_body
 
     try:
-        body = load_body(model)
+        body = load_body(scenario.model)
     except ModelError as exc:
-        raise ScenarioError(f"{path}: model: {exc}") from None
+        raise ScenarioError(f"{scenario.path}: model: {exc}") from None
     try:
         build_torque(scenario, body)
     except ValueError as exc:
-        raise ScenarioError(f"{path}: [torque]: {exc}") from None
-    return scenario
+        raise ScenarioError(f"{scenario.path}: [torque]: {exc}") from None
 
 
 def _read_torque(tq: _Reader) -> dict:

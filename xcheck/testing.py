@@ -140,7 +140,7 @@ def assert_agrees(scenario_or_path, a: str, b: str, *, dt: float, atol: float):
     their largest attitude difference over the run, trajectory against trajectory (no reference). Returns it."""
     from . import rotations as rot
     from .runners import RUNNERS
-    from .study import run_context
+    from .study.context import run_context
 
     sc = _scenario(scenario_or_path)
     for name in (a, b):
@@ -168,7 +168,7 @@ def assert_invariants(scenario_or_path, *, method: str, dt: float | None = None,
     stays within ``norm_atol`` of 1. Returns the drifts."""
     from .metrics import invariant_drift
     from .runners import RUNNERS
-    from .study import run_context
+    from .study.context import run_context
 
     sc = _scenario(scenario_or_path)
     if sc.torque is not None:

@@ -8,7 +8,6 @@ from importlib import metadata
 
 from . import __version__
 
-
 NOT_INSTALLED = "not installed"
 
 

@@ -53,7 +53,12 @@ import numpy as np
 from .. import rotations as rot
 from ..fields.kernel import MU0
 from ..fields.models import ConstantTorque, MagneticTorque
-from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, tolerances_at
+from ..trajectory import (
+    Trajectory,
+    check_initial_state,
+    continuous_quaternions,
+    tolerances_at,
+)
 
 __all__ = ["simulate", "INTEGRATORS", "to_basilisk", "from_basilisk", "clock_step"]
 

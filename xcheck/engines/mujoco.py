@@ -29,7 +29,13 @@ from mujoco import rollout
 from .. import rotations as rot
 from ..fields import TorqueModel, torque_eval
 from ..models import MJCFBody, load_mujoco
-from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan, time_grid
+from ..trajectory import (
+    Trajectory,
+    check_initial_state,
+    continuous_quaternions,
+    step_plan,
+    time_grid,
+)
 
 __all__ = ["simulate", "control_callback", "mujoco_warnings", "INTEGRATORS"]
 

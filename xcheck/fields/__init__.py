@@ -31,11 +31,25 @@ from __future__ import annotations
 
 from .igrf import IGRFField
 from .kernel import MU0, torque_eval, torque_needs_attitude
-from .models import (BodyFieldTable, ConstantTorque, Field, Key, MagneticTorque, TorqueModel, UniformField,
-                     WorldFieldTable, magnetic_torque)
+from .models import (
+                     BodyFieldTable,
+                     ConstantTorque,
+                     Field,
+                     Key,
+                     MagneticTorque,
+                     TorqueModel,
+                     UniformField,
+                     WorldFieldTable,
+                     magnetic_torque,
+)
 from .orbit import IGRF2010_DIPOLE_NT, RAX1_ORBIT, OrbitDipoleField, orbit_position
-from .rax1 import (SEED004_INITIAL_TORQUE, nearest_achievable_torque, rax1_orbit_phase_residual,
-                   rax1_synthetic_body_table, write_rax1_body_table)
+from .rax1 import (
+                     SEED004_INITIAL_TORQUE,
+                     nearest_achievable_torque,
+                     rax1_orbit_phase_residual,
+                     rax1_synthetic_body_table,
+                     write_rax1_body_table,
+)
 from .tables import load_field_table, write_field_table
 
 __all__ = [

@@ -19,7 +19,13 @@ import numpy as np
 from .. import rotations as rot
 from ..body import validate_inertia
 from ..fields import TorqueModel
-from ..trajectory import Trajectory, check_initial_state, step_plan, time_grid, tolerances_at
+from ..trajectory import (
+    Trajectory,
+    check_initial_state,
+    step_plan,
+    time_grid,
+    tolerances_at,
+)
 from . import _kernels
 from .kernel_args import KernelArgs
 from .methods import METHODS, Method

@@ -94,7 +94,9 @@ else:
     from numba.extending import overload
 
     from .. import fields
-    from .._jit import numba  # numba with xcheck's cache folder (outside the installed package)
+    from .._jit import (
+        numba,  # numba with xcheck's cache folder (outside the installed package)
+    )
 
     # numba's pedantic SSA check misfires on IR-inlined code ("variable ... is not in scope"); harmless
     warnings.filterwarnings("ignore", category=numba.core.errors.NumbaIRAssumptionWarning)

@@ -11,7 +11,10 @@ import time
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import Callable
+
+from .render import Section, with_sections
 
 __all__ = ["ReportOutcome", "build_report", "resolve_scenarios", "worker_modules"]
 
@@ -68,8 +71,9 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
 
     ``workers``: 1 runs everything in this process; otherwise a pool of one worker fewer than ``workers`` (the
     CPU count by default) runs the studies and draws the figures beside this process. ``bench``: ``xcheck
-    bench`` rows measured by the caller; else measured here when ``run_bench``. ``sections(results)``: more of
-    the report (the nightly's History), see :func:`xcheck.report.render.write_report`. ``written(folder)`` is
+    bench`` rows measured by the caller; else measured here when ``run_bench``. ``sections``: more of the
+    report (:class:`~xcheck.report.render.Section`), or a function that makes them from the finished, read-only
+    results document (the nightly's History), see :func:`xcheck.report.render.write_report`. ``written(folder)`` is
     called as soon as the folder is complete (an interrupt after it has a complete report). ``started``: the
     first mark (the command's start)."""
     from ..pool import worker_pool
@@ -103,15 +107,16 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
             from ..bench import run_bench as measure
 
             bench = measure(quick=quick, repeat=1)
-        verdict = {"determination": True}
+        determined = determination_section(determinations.values()) if determinations else None
         folder = write_report(studies, out, throughput=throughput_rows(studies) + (bench or []),
                               wall_time=time.perf_counter() - t0, quick=quick, pool=pool, figures=figures,
                               trajectories=trajectories, marks=marks,
-                              sections=_with_determinations(determinations, sections, verdict))
+                              sections=_all_sections(determined, sections))
         if written is not None:
             written(folder)
     marks.append(("workers stopped", time.perf_counter()))
-    return ReportOutcome(studies=studies, folder=folder, determination_passed=verdict["determination"], marks=marks)
+    return ReportOutcome(studies=studies, folder=folder, marks=marks,
+                         determination_passed=determined is None or determined.passed)
 
 
 def _start_determinations(scenarios, pool) -> dict:
@@ -122,34 +127,33 @@ def _start_determinations(scenarios, pool) -> dict:
             for sc in scenarios if sc.determination is not None}
 
 
-def _with_determinations(determinations, sections, verdict: dict):
-    """The report's ``sections``: the determination studies and seed 002 reproduced (when any scenario has a
-    ``[determination]``), then ``sections``' own (the nightly's History). Their verdict joins the report's and
-    is kept in ``verdict["determination"]``."""
-    if not determinations:
-        return sections
+def determination_section(determinations) -> Section:
+    """The determination studies (each ``(data, figures)``, or a future of it) and seed 002 reproduced, as one
+    :class:`~xcheck.report.render.Section`: its verdict joins the report's."""
+    from ..determination.seed002 import reproduce
+    from .determination import determination_blocks, seed002_blocks
 
-    def all_sections(results):
-        from ..seed002 import reproduce
-        from .determination import determination_blocks, seed002_blocks
+    blocks, figures, data = [], [], []
+    for future in determinations:
+        one, drawn = future.result() if hasattr(future, "result") else future
+        data.append(one)
+        blocks += determination_blocks(one, [(file, caption) for file, caption, _ in drawn])
+        figures += drawn
+    rep = reproduce()
+    blocks += seed002_blocks(rep)
+    return Section(blocks=blocks, figures=figures, results={"determination": data, "seed002": {"passed": rep["passed"]}},
+                   passed=rep["passed"] and all(d["passed"] for d in data))
 
-        blocks, figures = [], []
-        results["determination"] = []
-        for future in determinations.values():
-            data, drawn = future.result() if hasattr(future, "result") else future
-            results["determination"].append(data)
-            blocks += determination_blocks(data, [(file, caption) for file, caption, _ in drawn])
-            figures += drawn
-        rep = reproduce()
-        results["seed002"] = {"passed": rep["passed"]}
-        blocks += seed002_blocks(rep)
-        verdict["determination"] = rep["passed"] and all(d["passed"] for d in results["determination"])
-        results["passed"] = results["passed"] and verdict["determination"]
-        summary = None
-        if sections is not None:
-            summary, more, drawn = sections(results)
-            blocks += more
-            figures += drawn
-        return summary, blocks, figures
 
-    return all_sections
+def _all_sections(first: Section | None, sections):
+    """The report's sections: ``first`` (the determination studies', when any scenario has a ``[determination]``),
+    then ``sections``' own (the nightly's History: a function of the read-only results document, which sees the
+    determination's keys)."""
+    if first is None:
+        return sections or ()
+    if not callable(sections):
+        return [first, *(sections or ())]
+
+    def made(results):
+        return [first, *sections(MappingProxyType(with_sections(dict(results), [first])))]
+    return made

@@ -1,4 +1,4 @@
-"""The report's attitude-determination section (:mod:`xcheck.sensing` on a scenario's MuJoCo run, and seed
+"""The report's attitude-determination section (:mod:`xcheck.determination.study` on a scenario's MuJoCo run, and seed
 002 reproduced): blocks for :mod:`xcheck.report.document` and the figures as PNG bytes."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .document import Cell, Figure, Heading, Para, Table
-from .render import _fmt
+from .render import fmt
 
 __all__ = ["determination_job", "determination_blocks", "seed002_blocks", "draw_determination"]
 
@@ -16,7 +16,7 @@ _STYLES = {"triad": "-", "q-method": "-", "quest": "--", "svd": ":"}
 
 def determination_job(scenario) -> tuple[dict, list]:
     """Run a scenario's determination study and draw its figures (in a worker): ``(data, figures)``."""
-    from ..sensing import run_determination
+    from ..determination.study import run_determination
 
     data, series = run_determination(scenario)
     return data, draw_determination(data, series)
@@ -25,13 +25,13 @@ def determination_job(scenario) -> tuple[dict, list]:
 def draw_determination(data: dict, series: dict) -> list[tuple[str, str, bytes]]:
     """Two figures: the error of every method against time (one panel per noisy level, the predicted RMS
     dashed), and the RMS error against the angle between the two directions (the approach study)."""
-    from .plots import _png, _subplots
+    from .plots import png_of, subplots
 
     name = data["scenario"]
     out = []
     noisy = [lv for lv in data["levels"] if lv["predicted_rms"] is not None]
     if noisy:
-        fig, axes = _subplots(len(noisy), 1, size=(9.0, 2.6 * len(noisy) + 0.8), sharex=True, legend_outside=True)
+        fig, axes = subplots(len(noisy), 1, size=(9.0, 2.6 * len(noisy) + 0.8), sharex=True, legend_outside=True)
         axes = np.atleast_1d(axes)
         t = series["t"]
         for ax, lv in zip(axes, noisy):
@@ -45,11 +45,11 @@ def draw_determination(data: dict, series: dict) -> list[tuple[str, str, bytes]]
             ax.grid(True, which="major", alpha=0.3)
         axes[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=9)
         axes[-1].set_xlabel("t [s]")
-        out.append(_png(fig, f"{name}-determination-error.png",
+        out.append(png_of(fig, f"{name}-determination-error.png",
                         "Attitude determination error against time, every method (q-method, QUEST and SVD coincide)"))
     ap = data.get("approach")
     if ap:
-        fig, ax = _subplots(size=(9.0, 4.8), legend_outside=True)
+        fig, ax = subplots(size=(9.0, 4.8), legend_outside=True)
         a = np.asarray(ap["angles_deg"])
         for m, v in ap["methods"].items():
             ax.loglog(a, v["rms"], _STYLES.get(m, "-"), marker="o", ms=4, color=_COLORS.get(m), label=m)
@@ -60,7 +60,7 @@ def draw_determination(data: dict, series: dict) -> list[tuple[str, str, bytes]]
         ax.set_title(f"Accuracy lost as the two directions close up ({ap['level']})", fontsize=10)
         ax.grid(True, which="major", alpha=0.3)
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=9)
-        out.append(_png(fig, f"{name}-determination-approach.png",
+        out.append(png_of(fig, f"{name}-determination-approach.png",
                         "RMS attitude error against the angle between the two observed directions: it grows as "
                         "1/sin(angle), as predicted"))
     return out
@@ -85,10 +85,10 @@ def determination_blocks(data: dict, figures) -> list:
         for m, s in lv["methods"].items():
             ratio = s["ratio_to_predicted"]
             rows.append([lv["name"] if m == next(iter(lv["methods"])) else "", m,
-                         Cell(_fmt(s["mean"]), num=True), Cell(_fmt(s["rms"]), num=True),
-                         Cell(_fmt(lv["predicted_rms"]), num=True),
+                         Cell(fmt(s["mean"]), num=True), Cell(fmt(s["rms"]), num=True),
+                         Cell(fmt(lv["predicted_rms"]), num=True),
                          Cell("—" if ratio is None else f"{ratio:.3f}", num=True),
-                         Cell(_fmt(s["p95"]), num=True), Cell(_fmt(s["max"]), num=True),
+                         Cell(fmt(s["p95"]), num=True), Cell(fmt(s["max"]), num=True),
                          Cell(str(s["near_degenerate"]), num=True),
                          Cell("—" if not s["solutions_per_second"] else f"{s['solutions_per_second']:.3g}", num=True)])
     blocks.append(Table(["noise", "method", "mean [rad]", "RMS [rad]", "predicted RMS", "RMS / predicted",
@@ -101,8 +101,8 @@ def determination_blocks(data: dict, figures) -> list:
         rows = []
         for i, a in enumerate(ap["angles_deg"]):
             flags = max(v["near_degenerate"][i] for v in ap["methods"].values())
-            rows.append([Cell(f"{a:g}", num=True), Cell(_fmt(ap["predicted_rms"][i]), num=True)]
-                        + [Cell(_fmt(v["rms"][i]), num=True) for v in ap["methods"].values()]
+            rows.append([Cell(f"{a:g}", num=True), Cell(fmt(ap["predicted_rms"][i]), num=True)]
+                        + [Cell(fmt(v["rms"][i]), num=True) for v in ap["methods"].values()]
                         + [Cell(f"{flags} of {tr['samples']}", num=True)])
         blocks.append(Para(f"The approach study ({ap['level']}): the sun direction placed at each angle from the "
                            "field's at every sample. The error grows as 1/sin(angle); below 1° every solution is "

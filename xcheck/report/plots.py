@@ -15,7 +15,8 @@ from .. import rotations as rot  # noqa: E402
 from ..runners import RUNNERS  # noqa: E402
 from ..trajectory import step_label  # noqa: E402
 
-__all__ = ["render_figures", "scenario_figures", "new_figure", "save_figure"]
+__all__ = ["render_figures", "scenario_figures", "new_figure", "save_figure", "subplots", "png_of", "colors_of",
+           "line_style"]
 
 _STYLE = {"figure.dpi": 100, "savefig.dpi": 100, "font.size": 9, "axes.grid": True, "grid.alpha": 0.3,
           "axes.spines.top": False, "axes.spines.right": False, "legend.fontsize": 7}
@@ -25,7 +26,7 @@ _MARKERS = "osD^v<>pPXh*"
 matplotlib.rcParams.update(_STYLE)
 
 
-def _colors(names):
+def colors_of(names):
     cmap = plt.get_cmap("tab20")
     return {n: cmap(i % 20) for i, n in enumerate(names)}
 
@@ -37,11 +38,11 @@ def render_figures(data: dict, series: dict, *, quick: bool = False) -> list[tup
     figs = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        colors = _colors(list(data["methods"]))
+        colors = colors_of(list(data["methods"]))
         measured = any(r["attitude_error"] is not None for m in data["methods"].values() for r in m["runs"])
         if not measured:  # every run failed, or no reference: the checks say why, an empty plot would not
             return figs
-        figs.append(_png(_convergence_and_cost(data, colors), f"{name}-convergence.png",
+        figs.append(png_of(_convergence_and_cost(data, colors), f"{name}-convergence.png",
                          "Left: attitude error at the final time against the step (log-log), with slope guides "
                          "for orders 1 and 4; below the shaded line errors are at the study's floor (round-off or "
                          "the reference's own accuracy); like seed 004 Fig. 12. Right: the same errors against the "
@@ -49,13 +50,13 @@ def render_figures(data: dict, series: dict, *, quick: bool = False) -> list[tup
                          "(lower left is better), the adaptive methods (open markers) at each of their tolerances; "
                          "dotted lines at the tolerances of the step-size table."))
         if data.get("comparisons"):
-            figs.append(_png(_comparisons(data, colors), f"{name}-direct.png",
+            figs.append(png_of(_comparisons(data, colors), f"{name}-direct.png",
                              "Direct cross-check, no reference: the largest attitude difference over the run "
                              "between each engine method and one of ours at the same step (same order where we "
                              "have one). It shrinks at the lower of the two orders until round-off."))
         if series:
             torque_free = data.get("torque") is None
-            figs.append(_png(_errors_in_time(series, colors, torque_free), f"{name}-error.png",
+            figs.append(png_of(_errors_in_time(series, colors, torque_free), f"{name}-error.png",
                              "Attitude error against time for the finest step of each method" +
                              ("; below it the relative drift of kinetic energy and of world angular momentum "
                               "(torque free: both are conserved)." if torque_free else ".")))
@@ -88,7 +89,7 @@ def new_figure(*args, **kwargs):
     return plt.subplots(*args, **kwargs)
 
 
-def _subplots(nrows=1, ncols=1, *, size=(7.5, 4.8), legend_outside=False, **kwargs):
+def subplots(nrows=1, ncols=1, *, size=(7.5, 4.8), legend_outside=False, **kwargs):
     """A figure with fixed margins in inches (room on the right for a legend outside the axes): one drawing
     pass when saved, where ``bbox_inches="tight"`` costs a second one."""
     fig, axes = plt.subplots(nrows, ncols, figsize=size, **kwargs)
@@ -167,7 +168,7 @@ def save_figure(fig, path) -> None:
         plt.close(fig)
 
 
-def _png(fig, file, caption) -> tuple[str, str, bytes]:
+def png_of(fig, file, caption) -> tuple[str, str, bytes]:
     """The figure as PNG bytes with a palette of 128 colours (a third of the bytes of matplotlib's RGBA, no
     visible change on line plots), drawn once and encoded once."""
     import io
@@ -188,7 +189,7 @@ def _png(fig, file, caption) -> tuple[str, str, bytes]:
 
 def _convergence_and_cost(data, colors):
     """Two panels sharing the error axis and one legend: error against step, and against wall time."""
-    fig, (ax, cost) = _subplots(1, 2, size=(11.0, 4.6), legend_outside=True, sharey=True)
+    fig, (ax, cost) = subplots(1, 2, size=(11.0, 4.6), legend_outside=True, sharey=True)
     _work_precision(cost, data, colors)
     all_dt, all_e = [], []
     for i, (name, entry) in enumerate(data["methods"].items()):
@@ -201,7 +202,7 @@ def _convergence_and_cost(data, colors):
         e = np.maximum(e, 1e-17)
         order = entry["observed_order"]
         label = f"{name} (p = {order:.2f})" if order is not None else name
-        ax.loglog(dt, e, _line_style(name), marker=_MARKERS[i % len(_MARKERS)], ms=4, lw=1.2, color=colors[name],
+        ax.loglog(dt, e, line_style(name), marker=_MARKERS[i % len(_MARKERS)], ms=4, lw=1.2, color=colors[name],
                   label=label)
         all_dt += list(dt)
         all_e += list(e)
@@ -226,7 +227,7 @@ def _convergence_and_cost(data, colors):
     return fig
 
 
-def _line_style(name):
+def line_style(name):
     return RUNNERS[name].line_style if name in RUNNERS else "-"
 
 
@@ -243,7 +244,7 @@ def _work_precision(ax, data, colors):
             continue
         adaptive = _adaptive(entry)
         runs.sort(key=lambda r: r["rtol"] if adaptive else r["dt"])
-        ax.loglog([r["wall_time"] for r in runs], [max(r["attitude_error"], 1e-17) for r in runs], _line_style(name),
+        ax.loglog([r["wall_time"] for r in runs], [max(r["attitude_error"], 1e-17) for r in runs], line_style(name),
                   marker=_MARKERS[i % len(_MARKERS)], ms=4, lw=1.2, color=colors[name],
                   mfc="white" if adaptive else colors[name], label=f"{name} (adaptive)" if adaptive else None)
     for tol in (1e-3, 1e-6, 1e-9):
@@ -253,13 +254,13 @@ def _work_precision(ax, data, colors):
 
 
 def _comparisons(data, colors):
-    fig, ax = _subplots(size=(7.5, 3.6), legend_outside=True)
+    fig, ax = subplots(size=(7.5, 3.6), legend_outside=True)
     pairs = {}
     for c in data["comparisons"]:
         pairs.setdefault((c["a"], c["b"]), []).append((c["dt"], c["max_attitude_difference"]))
     for i, ((a, b), points) in enumerate(pairs.items()):
         points.sort()
-        ax.loglog([p[0] for p in points], [max(p[1], 1e-17) for p in points], _line_style(a),
+        ax.loglog([p[0] for p in points], [max(p[1], 1e-17) for p in points], line_style(a),
                   marker=_MARKERS[i % len(_MARKERS)], ms=4, lw=1.2, color=colors.get(a), label=f"{a} − {b}")
     ax.set_xlabel("step Δt [s]")
     ax.set_ylabel("max attitude difference [rad]")
@@ -271,7 +272,7 @@ def _comparisons(data, colors):
 def _errors_in_time(series, colors, torque_free: bool):
     """Attitude error against time; torque free, also the energy and momentum drifts (shared time axis)."""
     size = (7.5, 6.6) if torque_free else (7.5, 3.6)
-    fig, axes = _subplots(3 if torque_free else 1, size=size, legend_outside=True, sharex=True)
+    fig, axes = subplots(3 if torque_free else 1, size=size, legend_outside=True, sharex=True)
     axes = np.atleast_1d(axes)
     for name, s in series.items():
         e = np.maximum(np.asarray(s["attitude_error"], float), 1e-17)
@@ -308,7 +309,7 @@ def _euler_histories(data, series, name):
     ang_q = np.unwrap(ang_q, axis=0)
     labels = [f"angle {k + 1} (axis {seq[k]})" for k in range(3)] if seq != "323" else ["ψ", "θ", "φ"]
     se = series.get("euler-rk4")
-    fig, axes = _subplots(3, size=(7.5, 6.0), sharex=True)
+    fig, axes = subplots(3, size=(7.5, 6.0), sharex=True)
     for k, ax in enumerate(axes):
         ax.plot(sq["t"], np.degrees(ang_q[:, k]), lw=1.2, label=f"from {qm} (quaternions)")
         if se is not None and "euler" in se:
@@ -317,11 +318,11 @@ def _euler_histories(data, series, name):
     axes[0].legend(frameon=False)
     axes[-1].set_xlabel("t [s]")
     axes[0].set_title(f"{name}: Euler angles ({seq}), like seed 001 Figs. 13-15")
-    figs.append(_png(fig, f"{name}-euler-angles.png",
+    figs.append(png_of(fig, f"{name}-euler-angles.png",
                       "Euler angles from the Euler-angle integration and converted from the quaternion one "
                       "(seed 001 Figs. 13-15). Near the singularity the Euler-angle solution departs."))
     # rates of the angles
-    fig, axes = _subplots(3, size=(7.5, 6.0), sharex=True)
+    fig, axes = subplots(3, size=(7.5, 6.0), sharex=True)
     rates_q = _safe_rates(ang_q, sq["omega"], seq)
     for k, ax in enumerate(axes):
         ax.plot(sq["t"], rates_q[:, k], lw=1.2, label=f"from {qm}")
@@ -330,10 +331,10 @@ def _euler_histories(data, series, name):
         ax.set_ylabel(f"d{labels[k]}/dt [rad/s]")
     axes[0].legend(frameon=False)
     axes[-1].set_xlabel("t [s]")
-    figs.append(_png(fig, f"{name}-euler-rates.png",
+    figs.append(png_of(fig, f"{name}-euler-rates.png",
                       "Rates of the Euler angles (seed 001 Figs. 16-18); undefined (gaps) at the singularity."))
     # body rates and quaternion components
-    fig, (a1, a2) = _subplots(2, size=(7.5, 5.2), sharex=True)
+    fig, (a1, a2) = subplots(2, size=(7.5, 5.2), sharex=True)
     for k, c in enumerate("xyz"):
         a1.plot(sq["t"], sq["omega"][:, k], lw=1.1, label=f"ω{c}")
     a1.set_ylabel("body rate [rad/s]")
@@ -343,7 +344,7 @@ def _euler_histories(data, series, name):
     a2.set_ylabel(f"quaternion ({qm})")
     a2.set_xlabel("t [s]")
     a2.legend(frameon=False, ncol=4)
-    figs.append(_png(fig, f"{name}-rates-quaternion.png",
+    figs.append(png_of(fig, f"{name}-rates-quaternion.png",
                       "Body rates and quaternion components (seed 001 Figs. 19-23): smooth, with no singularity."))
     return figs
 
@@ -366,7 +367,7 @@ def _torqued_histories(data, series, name):
     if qm is None:
         return figs
     s = series[qm]
-    fig, axes = _subplots(3, size=(7.5, 7.0), sharex=True)
+    fig, axes = subplots(3, size=(7.5, 7.0), sharex=True)
     if "torque" in s:
         for k, c in enumerate("ξηζ"):
             axes[0].plot(s["t"], s["torque"][:, k] * 1e4, lw=1.1, label=f"t'{c}")
@@ -382,6 +383,6 @@ def _torqued_histories(data, series, name):
     axes[2].set_xlabel("t [s]")
     axes[2].legend(frameon=False, ncol=3)
     axes[0].set_title(f"{name}: {qm}, Δt = {s['dt']:.3g} s (like seed 004 Figs. 9-11)")
-    figs.append(_png(fig, f"{name}-histories.png",
+    figs.append(png_of(fig, f"{name}-histories.png",
                       "Torque, Euler parameters and body rates in body components (seed 004 Figs. 9-11)."))
     return figs

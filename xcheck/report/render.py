@@ -4,12 +4,15 @@ renamed into place only when complete; ``latest`` then points at it."""
 
 from __future__ import annotations
 
+import dataclasses
 import errno
 import os
 import shutil
 import socket
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -18,7 +21,8 @@ from ..versions import machine, versions
 from .document import Cell, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
 from .io import write_json_atomic, write_text_atomic, write_trajectory_csv
 
-__all__ = ["write_report", "draw_figures", "report_document", "StampedFolder", "REPORT_SCHEMA", "verdict_of"]
+__all__ = ["write_report", "draw_figures", "report_document", "report_results", "with_sections", "Section",
+           "StampedFolder", "REPORT_SCHEMA", "verdict_of", "fmt"]
 
 REPORT_SCHEMA = "xcheck.report/1"
 
@@ -28,14 +32,46 @@ def verdict_of(data: dict, method: str) -> str:
     return data["methods"][method]["verdict"]
 
 
-def _fmt(x, spec=".2e"):
+def fmt(x, spec=".2e") -> str:
+    """A number of a report's table (``—`` for none)."""
     return "—" if x is None else format(x, spec)
 
 
 # ------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Section:
+    """More of the report than its scenarios' studies, typed: ``blocks`` placed before the appendix with their
+    ``figures`` ``[(file, caption, png)]``, the keys it adds to ``results.json`` (``results``), whether it passed
+    (its verdict joins the report's) and an optional sentence for the first screen (``summary``). The
+    determination studies and seed 002 are one; ``xcheck nightly``'s History is another."""
+
+    blocks: list
+    figures: list = dataclasses.field(default_factory=list)
+    results: dict = dataclasses.field(default_factory=dict)
+    passed: bool = True
+    summary: str | None = None
+
+
+def report_results(studies, *, quick: bool = False, wall_time=None, throughput=None) -> dict:
+    """The results document of ``studies`` (schema ``xcheck.report/1``) before any :class:`Section` joins it."""
+    return {"schema": REPORT_SCHEMA, "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "quick": quick, "versions": versions(), "machine": machine(), "wall_time": wall_time,
+            "passed": all(st.passed for st in studies), "scenarios": [st.data for st in studies],
+            "throughput": throughput or []}
+
+
+def with_sections(results: dict, sections) -> dict:
+    """``results`` with every section's keys, in order, and its verdict joined (a new document)."""
+    out = dict(results)
+    for section in sections:
+        out.update(section.results)
+        out["passed"] = out["passed"] and section.passed
+    return out
+
+
 def write_report(studies, out_root, *, stamp: str | None = None, throughput=None, wall_time=None,
                  quick=False, pool=None, figures: dict | None = None, trajectories: bool = False,
-                 marks: list | None = None, sections=None) -> Path:
+                 marks: list | None = None, sections=()) -> Path:
     """Write the report of ``studies`` (list of StudyResult) under ``out_root/<stamp>/`` atomically and
     point ``out_root/latest`` at it. Returns the report folder.
 
@@ -43,10 +79,9 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
     future of it (drawn in a worker while other studies ran); the others are drawn here, in ``pool`` when
     given. ``trajectories``: also the sampled finest run of every method as CSV
     (``trajectories/<scenario>/<method>.csv``, ~4 MB a scenario). ``marks``: a list to which ``(phase,
-    time.perf_counter())`` pairs are appended (``xcheck report --timings``). ``sections``: a function of the
-    results document (which it may extend) returning ``(summary, blocks, figures)``: a sentence for the first
-    screen, blocks placed before the appendix, and their figures ``[(file, caption, png)]`` (``xcheck nightly``'s
-    History section).
+    time.perf_counter())`` pairs are appended (``xcheck report --timings``). ``sections``: more of the report
+    (:class:`Section`), or a function that makes them from the finished, read-only results document (``xcheck
+    nightly``'s History compares it with the history).
 
     The report is written into a hidden ``.incomplete-<stamp>-<host>-<pid>`` folder and renamed into place
     when complete: on any error or interrupt the workers are stopped first and the folder removed; a
@@ -75,17 +110,17 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
                 write_bytes_atomic(tmp / "plots" / file, png)
             captions[st.name] = [(file, caption) for file, caption, _ in drawn]
         marks.append(("figures", time.perf_counter()))
-        results = {"schema": REPORT_SCHEMA, "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-                   "quick": quick, "versions": versions(), "machine": machine(),
-                   "wall_time": wall_time, "passed": all(st.passed for st in studies),
-                   "scenarios": [st.data for st in studies], "throughput": throughput or []}
-        summary, extra = None, []
-        if sections is not None:
-            summary, extra, drawn = sections(results)
-            for file, _, png in drawn:
+        results = report_results(studies, quick=quick, wall_time=wall_time, throughput=throughput)
+        if callable(sections):
+            sections = sections(MappingProxyType(results))
+        results = with_sections(results, sections)
+        for section in sections:
+            for file, _, png in section.figures:
                 write_bytes_atomic(tmp / "plots" / file, png)
         write_json_atomic(tmp / "results.json", results)
-        document = report_document(studies, results, captions, extra=extra, summary=summary)
+        summary = next((sec.summary for sec in sections if sec.summary), None)
+        document = report_document(studies, results, captions, extra=[b for sec in sections for b in sec.blocks],
+                                   summary=summary)
         write_text_atomic(tmp / "report.md", to_markdown(document))
         write_text_atomic(tmp / "index.html", to_html(document, tmp / "plots", title="xcheck cross-check report"))
     marks.append(("files written", time.perf_counter()))
@@ -352,7 +387,7 @@ def scenario_summary(st) -> str:
            and any(c.kind == "order" and c.method == m.name and not c.passed for c in st.checks)]
     if off:
         out.append("Observed order not its theory: " + ", ".join(
-            f"{m.name} ({_fmt(m.observed_order, '.2f')}, expected {m.expected_order})" for m in off) + ".")
+            f"{m.name} ({fmt(m.observed_order, '.2f')}, expected {m.expected_order})" for m in off) + ".")
     elif any(m.observed_order is not None for m in st.methods.values()):
         out.append("Every measured order matches its theory" +
                    (" (the expected failures aside)." if any(m.verdict == "expected" for m in st.methods.values())
@@ -366,7 +401,7 @@ def _front_cell(st, name) -> Cell:
         return Cell()
     finest = m.finest
     text = f"p={m.observed_order:.2f}" if m.observed_order is not None else (m.status if m.status != "ok" else "p=—")
-    return Cell(f"{text} · {_fmt(finest.attitude_error if finest else None, '.1e')}", m.verdict)
+    return Cell(f"{text} · {fmt(finest.attitude_error if finest else None, '.1e')}", m.verdict)
 
 
 def _scenario_blocks(st, figs) -> list:
@@ -383,8 +418,8 @@ def _scenario_blocks(st, figs) -> list:
     rows = []
     for c in st.checks:
         cls = ("expected" if c.kind == "expected-failure" else "pass") if c.passed else "fail"
-        rows.append([c.name, Cell("pass" if c.passed else "FAIL", cls), Cell(_fmt(c.value, ".3g"), num=True),
-                     Cell(_fmt(c.limit, ".3g"), num=True), c.note])
+        rows.append([c.name, Cell("pass" if c.passed else "FAIL", cls), Cell(fmt(c.value, ".3g"), num=True),
+                     Cell(fmt(c.limit, ".3g"), num=True), c.note])
     blocks.append(Table(["check", "result", "value", "limit", "note"], rows))
     rows = []
     fixed = {n: m for n, m in st.methods.items() if not m.adaptive}
@@ -393,7 +428,7 @@ def _scenario_blocks(st, figs) -> list:
         by_dt = {r.dt: r for r in m.runs}
         rates = [r.steps_per_second for r in m.runs if r.steps_per_second]
         rows.append([Cell(name, m.verdict), "adaptive" if m.expected_order is None else str(m.expected_order),
-                     Cell(_fmt(m.observed_order, ".2f"), num=True), *(_run_cell(by_dt.get(d)) for d in st.steps),
+                     Cell(fmt(m.observed_order, ".2f"), num=True), *(_run_cell(by_dt.get(d)) for d in st.steps),
                      Cell(f"{max(rates):.3g}" if rates else "", num=True)])
     blocks.append(Table(["method", "expected", "observed", *(step_label(d) for d in st.steps), "steps/s"], rows))
     if adaptive:
@@ -465,7 +500,7 @@ def engines_compared(st) -> list:
         win4 = min((n for n in errs if errs[n] is not None), key=lambda n: errs[n], default=None)
         win = min((e for e in best if best[e] is not None), key=lambda e: best[e][0], default=None)
         rows.append([step_label(d)]
-                    + [Cell(_fmt(errs[n], ".1e"), "pass" if n == win4 else "", num=True) for n in rk4]
+                    + [Cell(fmt(errs[n], ".1e"), "pass" if n == win4 else "", num=True) for n in rk4]
                     + [Cell("—" if b is None else f"{b[1]} {b[0]:.1e}", "pass" if e == win else "", num=True)
                        for e, b in best.items()] + [win or "—"])
     why = []

@@ -16,12 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..history import finest_error
+from ..history.store import finest_error
 from ..runners import RUNNERS
-from ..sweep import AXES, SUMMARIES, SweepSpec, flat_params
+from ..sweep.spec import AXES, SUMMARIES, SweepSpec, flat_params
 from ..trajectory import step_label
 from ..versions import machine, versions
 from .document import Cell, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
+from .render import StampedFolder, fmt
 from .io import write_bytes_atomic, write_json_atomic, write_text_atomic
 
 __all__ = ["write_sweep", "sweep_figures", "tidy_rows", "csv_text", "SWEEP_SCHEMA", "ACCURACY"]
@@ -38,8 +39,7 @@ _MARKERS = "os^Dv<>pPXh*"
 def write_sweep(spec: SweepSpec, records: list, root: Path, *, methods, timings: dict, ran: int, reused: int,
                 wall_time: float, log: Path) -> Path:
     """Write the folder of a finished sweep under ``root`` (see the module docstring); returns it."""
-    from ..history import History, utc_now
-    from .render import StampedFolder
+    from ..history.store import History, utc_now
 
     folder = StampedFolder(root)
     with folder as tmp:
@@ -143,7 +143,7 @@ def sweep_figures(spec: SweepSpec, rows: list, methods) -> list[tuple[str, str, 
     work-precision cloud."""
     import matplotlib.pyplot as plt
 
-    from .plots import _png
+    from .plots import png_of
 
     stem = spec.path.stem
     cmap = plt.get_cmap("tab10" if len(methods) <= 10 else "tab20")
@@ -152,7 +152,7 @@ def sweep_figures(spec: SweepSpec, rows: list, methods) -> list[tuple[str, str, 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         if spec.axes:
-            figs.append(_png(_error_by_axis(spec, rows, methods, colors), f"{stem}-error-by-axis.png",
+            figs.append(png_of(_error_by_axis(spec, rows, methods, colors), f"{stem}-error-by-axis.png",
                              f"Attitude error at the final time at the sweep's largest step, Δt = "
                              f"{step_label(max(spec.steps))} s (where the methods' own errors stand above round-off), "
                              "against each swept axis: one point per cell and method; a model or field model axis "
@@ -163,13 +163,13 @@ def sweep_figures(spec: SweepSpec, rows: list, methods) -> list[tuple[str, str, 
         chosen = next((a for a in spec.axes if not a.random), None) or next(
             (a for a in spec.axes if not _axis_column(a)[2]), None)
         if mj and chosen is not None and len(spec.steps) > 1:
-            figs.append(_png(_accuracy_maps(spec, rows, mj, chosen), f"{stem}-accuracy-map.png",
+            figs.append(png_of(_accuracy_maps(spec, rows, mj, chosen), f"{stem}-accuracy-map.png",
                              f"Accuracy map of MuJoCo's integrators: the largest attitude error over the run "
                              f"(colour, log scale) for each step and {_axis_column(chosen)[1]}; where other axes "
                              f"vary too, the worst cell. The white line is the {ACCURACY:g} rad contour: below it "
                              "(smaller steps) the body is simulated within that accuracy. Grey: a run failed "
                              "there; blank: no cell."))
-        figs.append(_png(_work_precision(rows, methods, colors), f"{stem}-work-precision.png",
+        figs.append(png_of(_work_precision(rows, methods, colors), f"{stem}-work-precision.png",
                          "Work against precision over every cell, method and step: the wall time of a run against "
                          "its attitude error at the final time (lower left is better). Batched methods' times are "
                          "the batch call's share per cell."))
@@ -183,14 +183,14 @@ def _log_if_wide(ax, values, axis="x"):
 
 
 def _error_by_axis(spec, rows, methods, colors):
-    from .plots import _subplots
+    from .plots import subplots
 
     finest = _at_step(rows, max(spec.steps))
     n = len(spec.axes)
     ncols = 1 if n == 1 else 2
     nrows = math.ceil(n / ncols)
     height = 3.6 * nrows + 0.9
-    fig, axes = _subplots(nrows, ncols, size=(11 if ncols == 2 else 8, height), squeeze=False)
+    fig, axes = subplots(nrows, ncols, size=(11 if ncols == 2 else 8, height), squeeze=False)
     fig.subplots_adjust(wspace=0.25, hspace=0.45, top=1 - 0.85 / height)
     rng = np.random.default_rng(0)  # the sideways spread of categorical points: fixed, for identical figures
     for ax, axis in zip(axes.flat, spec.axes):
@@ -232,7 +232,7 @@ def _accuracy_maps(spec, rows, mj_methods, axis):
     error over the cells at that point, with the :data:`ACCURACY` contour."""
     from matplotlib.colors import LogNorm
 
-    from .plots import _subplots
+    from .plots import subplots
 
     column, label, categorical = _axis_column(axis)
     xs = list(dict.fromkeys(r[column] for r in rows if r[column] is not None))
@@ -256,14 +256,13 @@ def _accuracy_maps(spec, rows, mj_methods, axis):
     ncols = 1 if n == 1 else 2
     nrows = math.ceil(n / ncols)
     height = 3.8 * nrows + 0.7
-    fig, axes = _subplots(nrows, ncols, size=(11 if ncols == 2 else 7.5, height), squeeze=False)
+    fig, axes = subplots(nrows, ncols, size=(11 if ncols == 2 else 7.5, height), squeeze=False)
     fig.subplots_adjust(left=0.08, right=0.87, wspace=0.25, hspace=0.5, bottom=0.6 / height, top=1 - 0.7 / height)
     errs = [r["max_attitude_error"] for r in rows if r["method"] in mj_methods and r["max_attitude_error"]]
     vmin = max(min(errs, default=1e-12), 1e-16)
     vmax = max(max(errs, default=1.0), vmin * 10)
     norm = LogNorm(vmin=vmin, vmax=vmax)
     import matplotlib.pyplot as plt
-
     from matplotlib.colors import ListedColormap
 
     cmap = plt.get_cmap("viridis")
@@ -316,9 +315,9 @@ def _accuracy_maps(spec, rows, mj_methods, axis):
 
 
 def _work_precision(rows, methods, colors):
-    from .plots import _subplots
+    from .plots import subplots
 
-    fig, ax = _subplots(size=(8.5, 5), legend_outside=True)
+    fig, ax = subplots(size=(8.5, 5), legend_outside=True)
     for m in methods:
         pts = [(r["wall_time"], r["attitude_error"]) for r in rows
                if r["method"] == m and r["status"] == "ok" and r["attitude_error"] is not None and r["wall_time"]]
@@ -338,10 +337,6 @@ def _work_precision(rows, methods, colors):
 # ------------------------------------------------------------------------------------------------------
 # the document
 # ------------------------------------------------------------------------------------------------------
-def _fmt(v, spec=".2e"):
-    return "—" if v is None else format(v, spec)
-
-
 def sweep_document(spec: SweepSpec, records, summary, figures, methods) -> list:
     n = len(records)
     passed = summary["cells_passed"]
@@ -406,8 +401,8 @@ def _method_table(records, methods) -> Table:
         exp = RUNNERS[m].expected_order
         rows.append([Cell(m), Cell(RUNNERS[m].engine), Cell("adaptive" if exp is None else str(exp), num=True),
                      Cell(f"{good} / {len(records)}", "pass" if good == len(records) else "fail", num=True),
-                     Cell(_fmt(float(np.median(finest)) if finest else None), num=True),
-                     Cell(_fmt(max(finest) if finest else None), num=True), Cell(order, num=True),
+                     Cell(fmt(float(np.median(finest)) if finest else None), num=True),
+                     Cell(fmt(max(finest) if finest else None), num=True), Cell(order, num=True),
                      Cell(step_label(step) if step else "none", num=True)])
     return Table(header, rows)
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from ..history import MIN_TIMED, VERSION_COLUMNS, finest_error
+from ..history.store import MIN_TIMED, VERSION_COLUMNS, finest_error
 from ..trajectory import step_label
 from .document import Cell, Figure, Heading, Para, Table
 
@@ -13,7 +13,7 @@ __all__ = ["history_section", "version_table_blocks"]
 
 
 def history_section(cmp, *, others=(), trend_figures: bool = True):
-    """``(summary, blocks, figures)`` of a :class:`~xcheck.nightly.Comparison`: a sentence for the report's
+    """``(summary, blocks, figures)`` of a :class:`~xcheck.history.nightly.Comparison`: a sentence for the report's
     first screen, the section's blocks, and its figures as ``[(file, caption, png)]``. ``others``: the
     comparisons of the version matrix's runs with their own series (their changes are listed too)."""
     regressions = cmp.regressions + [c for other in others for c in other.regressions]
@@ -107,12 +107,12 @@ def _finest_speed(metrics: dict, scenario: str, method: str):
 
 
 def _trend_png(scenario, points, labels, marks):
-    from .plots import _colors, _line_style, _png, _subplots
+    from .plots import colors_of, line_style, png_of, subplots
 
     methods = list(dict.fromkeys(k[1] for p in points for k in p if k[0] == scenario and k[1]
                                  and k[3] == "observed_order"))
-    colors = _colors(methods)
-    fig, axes = _subplots(3, 1, size=(9.5, 8.0), legend_outside=True, sharex=True)
+    colors = colors_of(methods)
+    fig, axes = subplots(3, 1, size=(9.5, 8.0), legend_outside=True, sharex=True)
     x = list(range(len(points)))
     panels = [("finest error [rad]", lambda p, m: p.get((scenario, m, None, "finest_error")), True),
               ("observed order", lambda p, m: p.get((scenario, m, None, "observed_order")), False),
@@ -123,7 +123,7 @@ def _trend_png(scenario, points, labels, marks):
             y = [math.nan if v is None or (log and v <= 0) else v for v in y]
             if all(math.isnan(v) for v in y):
                 continue
-            ax.plot(x, y, _line_style(m), color=colors[m], label=m, marker="o", markersize=3)
+            ax.plot(x, y, line_style(m), color=colors[m], label=m, marker="o", markersize=3)
         if log:
             ax.set_yscale("log")
         ax.set_ylabel(label)
@@ -139,7 +139,7 @@ def _trend_png(scenario, points, labels, marks):
     axes[0].set_title(f"{scenario}: trends over the stored runs")
     handles, names = axes[0].get_legend_handles_labels()
     fig.legend(handles, names, loc="center right", fontsize=7)
-    return _png(fig, f"{scenario}-history.png",
+    return png_of(fig, f"{scenario}-history.png",
                 f"{scenario}: finest attitude error, observed order and steps per second at the finest step, per "
                 "method, over the stored runs of this series and this run (right); dotted: a version changed.")
 
@@ -150,7 +150,7 @@ def version_table_blocks(columns: list[tuple], thresholds=None) -> list:
     or None)`` in release order. Per scenario and MuJoCo integrator: the observed order and the finest error by release; a
     cell that moved beyond the regression thresholds from its left neighbour is marked (red worse, green
     better)."""
-    from ..history import Thresholds
+    from ..history.store import Thresholds
 
     th = thresholds or Thresholds()
     blocks = [Heading(2, "MuJoCo versions", anchor="mujoco-versions"),

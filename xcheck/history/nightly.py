@@ -1,6 +1,6 @@
 """``xcheck nightly``: the full report, compared with the history's previous run and rolling baseline, then
-recorded in it (issue 11). The storage and the comparison rules are :mod:`xcheck.history`'s; the History
-section's figures and tables :mod:`xcheck.report.trends`'; the MuJoCo version matrix :mod:`xcheck.matrix`'s.
+recorded in it (issue 11). The storage and the comparison rules are :mod:`xcheck.history.store`'s; the History
+section's figures and tables :mod:`xcheck.report.trends`'; the MuJoCo version matrix :mod:`xcheck.history.matrix`'s.
 
 A run's **series** is what it is compared with: runs of the same kind (quick or full) in the same environment
 (the one xcheck runs in, or one MuJoCo version of the matrix). A new MuJoCo release installed between two
@@ -18,7 +18,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import history as H
+from . import store as H
 
 #: Stored runs drawn in the History section's trend plots (the newest; the history keeps every run).
 TREND_RUNS = 60
@@ -212,7 +212,7 @@ def run_nightly(scenarios, out, *, location, baseline: int | None = None, last: 
     history at ``location`` (checked here first, before any work): the other MuJoCo ``versions`` first, each in
     its environment, then the report with its History section, then one transaction for every run, then
     ``keep``. ``written(folder)`` as soon as the report folder is complete."""
-    from .report.build import build_report
+    from ..report.build import build_report
 
     check_history(location, baseline)
     host, commit = host_name(), git_commit()
@@ -226,8 +226,9 @@ def run_nightly(scenarios, out, *, location, baseline: int | None = None, last: 
                             workers=workers)
     rows, comparisons = [], []
 
-    def sections(results):
-        from .report.trends import history_section, version_table_blocks
+    def sections(results):  # the finished results document, read only: the History compares it with the history
+        from ..report.render import Section
+        from ..report.trends import history_section, version_table_blocks
 
         main = compare_run(location, results, throughput=rows, host=host, baseline=baseline, last=last,
                            thresholds=thresholds)
@@ -237,7 +238,6 @@ def run_nightly(scenarios, out, *, location, baseline: int | None = None, last: 
                 comparisons.append(compare_run(location, vr.results, host=host, last=last,
                                                environment=f"mujoco=={vr.version}", thresholds=thresholds))
         summary, blocks, figures = history_section(main, others=comparisons[1:])
-        results["history"] = [c.to_json() for c in comparisons]
         if versions:
             columns = [(vr.version, vr.results, vr.note, vr.folder and os.path.relpath(vr.folder, out))
                        for vr, _, _ in matrix]
@@ -245,11 +245,12 @@ def run_nightly(scenarios, out, *, location, baseline: int | None = None, last: 
                 columns.append((installed, results, "the installed release", None))
             columns.sort(key=lambda c: tuple(map(int, c[0].split("."))))
             blocks += version_table_blocks(columns, thresholds)
-        return summary, blocks, figures
+        return [Section(blocks=blocks, figures=figures, summary=summary,
+                        results={"history": [c.to_json() for c in comparisons]})]
 
     began = H.utc_now()
     if bench:  # measured before the report so that its History section can compare the rows
-        from .bench import run_bench
+        from ..bench import run_bench
 
         rows += run_bench(quick=quick, repeat=3)
     report = build_report(scenarios, out, quick=quick, workers=workers, bench=rows, sections=sections,

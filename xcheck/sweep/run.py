@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .runners import RUNNERS
-from .sweep import SweepError, SweepSpec, apply_cell, cell_id
+from ..runners import RUNNERS
+from .spec import SweepError, SweepSpec, apply_cell, cell_id
 
 __all__ = ["SweepLog", "plan_chunks", "run_chunk", "run_sweep", "sweep_methods", "fingerprint", "executor", "CHUNK",
            "LOG_SCHEMA"]
@@ -42,7 +42,7 @@ MIN_TASKS = 4
 
 
 def sweep_methods(spec: SweepSpec) -> list[str]:
-    from .study import default_methods
+    from ..study import default_methods
 
     return list(spec.methods) if spec.methods else default_methods(spec.base)
 
@@ -109,7 +109,7 @@ class SweepLog:
 
     def start(self) -> None:
         """Write the log afresh: its header and the records kept (atomic; appended to from then on)."""
-        from .report.io import write_text_atomic
+        from ..report.io import write_text_atomic
 
         lines = [json.dumps({"schema": LOG_SCHEMA, "fingerprint": self.fingerprint})]
         lines += [json.dumps(r, allow_nan=False) for r in self.records.values()]
@@ -204,9 +204,9 @@ def run_chunk(chunk: list[tuple], methods: list[str], steps: tuple) -> list[dict
     :func:`~xcheck.integrators.integrate_batch` call per step; the others run cell by cell."""
     import warnings
 
-    from .reference import ReferenceFailure
-    from .study import run_context, scenario_reference
-    from .trajectory import step_plan, time_grid
+    from ..reference import ReferenceFailure
+    from ..study.context import run_context, scenario_reference
+    from ..trajectory import step_plan, time_grid
 
     warnings.filterwarnings("ignore", category=UserWarning, module="xcheck.models")
     cells = [_Cell(cid, params, sc) for cid, params, sc in chunk]
@@ -234,7 +234,7 @@ def run_chunk(chunk: list[tuple], methods: list[str], steps: tuple) -> list[dict
 
 
 def _run_single(method: str, c: _Cell, steps: tuple) -> None:
-    from .study import measure_method
+    from ..study.measure import measure_method
 
     t0 = time.perf_counter()
     res = measure_method(c.scenario, method, steps, None, sample=False, tolerances=c.scenario.quick_tolerances)
@@ -248,10 +248,10 @@ _WARM_BATCH: set = set()
 def _run_batched(method: str, cells: list[_Cell], steps: tuple) -> None:
     """One integrate_batch call per step for all ``cells`` (same model, torque, duration); each run's wall
     time is the call's divided by the number of cells."""
-    from .integrators import METHODS, integrate_batch
-    from .results import Run
-    from .study import measure_run
-    from .trajectory import Trajectory
+    from ..integrators import METHODS, integrate_batch
+    from ..results import Run
+    from ..study.measure import measure_run
+    from ..trajectory import Trajectory
 
     ctx0 = cells[0].ctx
     stages = METHODS[method].stages
@@ -292,8 +292,9 @@ def _run_batched(method: str, cells: list[_Cell], steps: tuple) -> None:
 def _record(c: _Cell, methods: list[str], steps: tuple) -> dict:
     """A cell's record: its parameters, every method's result (schema ``xcheck.convergence/1``'s method
     entries), the checks, whether it passed, and where its time went."""
-    from .results import Run
-    from .study import assemble, settings
+    from ..results import Run
+    from ..study import assemble
+    from ..study.measure import settings
 
     if c.failure is not None:
         c.results = [{"method": m, "runs": [Run.failed(dt, "failed", f"no reference: {c.failure}", 0.0, rtol)
@@ -370,7 +371,7 @@ def _ready() -> bool:
 
 
 #: What a sweep's workers import as they start.
-WORKER_MODULES = ("xcheck.sweep_run", "xcheck.study", "xcheck.engines.mujoco")
+WORKER_MODULES = ("xcheck.sweep.run", "xcheck.study", "xcheck.engines.mujoco")
 
 
 @contextmanager
@@ -382,7 +383,7 @@ def executor(kind: str = "local", jobs: int = 1, scheduler: str | None = None):
         if jobs == 1:
             yield _InProcess()
             return
-        from .pool import worker_pool
+        from ..pool import worker_pool
 
         with worker_pool(jobs, warm=WORKER_MODULES) as pool:
             for f in [pool.submit(_ready) for _ in range(jobs)]:  # started and warmed: the start-up is measured
@@ -404,7 +405,7 @@ def executor(kind: str = "local", jobs: int = 1, scheduler: str | None = None):
         with client:
             yield _Dask(client, f"the Dask cluster at {scheduler}")
         return
-    from .pool import interrupts_deferred, spawned_with_sigint_blocked
+    from ..pool import interrupts_deferred, spawned_with_sigint_blocked
 
     with ExitStack() as stack:
         # built whole (a Ctrl-C meanwhile is raised once it stands, and the stack closes it), its workers ignoring
@@ -511,7 +512,7 @@ def run_sweep(spec: SweepSpec, out_root, *, jobs: int = 1, resume: bool = False,
     (:func:`xcheck.report.sweep.write_sweep`). ``resume``: keep the cells of an interrupted run (its log), or
     of the latest complete one (``latest/cells.jsonl``: a spec given more values runs only the new cells).
     ``progress(done, total, label)`` as chunks finish; ``say(text)`` for notes."""
-    from .report.sweep import write_sweep
+    from ..report.sweep import write_sweep
 
     t_start = time.perf_counter()
     root = Path(out_root) / spec.path.stem

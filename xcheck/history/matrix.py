@@ -24,8 +24,8 @@ import sysconfig
 from dataclasses import dataclass
 from pathlib import Path
 
-from .history import utc_now
-from .versions import NOT_INSTALLED, package_version
+from ..versions import NOT_INSTALLED, package_version
+from .store import utc_now
 
 #: What an environment takes from the running one, pinned (MuJoCo may not pull other versions in).
 PINNED = ("numpy", "scipy", "numba", "llvmlite", "matplotlib")
@@ -57,7 +57,7 @@ def installed_mujoco() -> str | None:
 
 
 def env_dir(version: str) -> Path:
-    from ._jit import user_cache_home
+    from .._jit import user_cache_home
 
     return user_cache_home() / "mujoco-envs" / f"py{sys.version_info[0]}.{sys.version_info[1]}-mujoco-{version}"
 

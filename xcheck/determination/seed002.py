@@ -1,4 +1,4 @@
-"""Seed 002 reproduced: its TRIAD and q-method tables recomputed with :mod:`xcheck.determination`, beside the
+"""Seed 002 reproduced: its TRIAD and q-method tables recomputed with :mod:`xcheck.determination.methods`, beside the
 printed digits (``xcheck determine --seed002``).
 
 Each printed number is matched to half a unit of its last printed digit (the print's rounding). The seed's
@@ -18,7 +18,7 @@ What the reproduction shows (the findings, also in the README):
 * The weight search (eq. 2.11-2.14) minimises J over the weights with the attitude held fixed; J is linear in
   the weights, so the search runs to the single best-fitting observation, and the final ``w = (1, 0, 0, 0)``
   gives J ≈ 0 because one direction fits exactly whatever the rotation about it: the attitude is then
-  undetermined, which :mod:`xcheck.determination` refuses to hide. It says nothing about sensor 1's accuracy.
+  undetermined, which :mod:`xcheck.determination.methods` refuses to hide. It says nothing about sensor 1's accuracy.
 """
 
 from __future__ import annotations
@@ -27,9 +27,16 @@ from decimal import Decimal
 
 import numpy as np
 
-from .determination import METHODS, DeterminationError, loss, q_method, triad
-from .seeds import (SEED002_BODY, SEED002_Q_METHOD, SEED002_REFERENCE, SEED002_TRIAD, SEED002_V4B_PRINTED,
-                    SEED002_WEIGHT_SEARCH, quat_to_seed002_quat)
+from ..seeds import (
+    SEED002_BODY,
+    SEED002_Q_METHOD,
+    SEED002_REFERENCE,
+    SEED002_TRIAD,
+    SEED002_V4B_PRINTED,
+    SEED002_WEIGHT_SEARCH,
+    quat_to_seed002_quat,
+)
+from .methods import METHODS, DeterminationError, loss, q_method, triad
 
 __all__ = ["half_unit", "reproduce", "report_lines"]
 

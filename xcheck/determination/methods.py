@@ -29,8 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._jit import njit
-from .rotations import _check, dcm_to_quat, quat_to_dcm, skew
+from .._jit import njit
+from ..rotations import _check, dcm_to_quat, quat_to_dcm, skew
 
 __all__ = [
     "DeterminationError",

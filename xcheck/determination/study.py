@@ -1,5 +1,5 @@
 """Attitude determination on a simulated run (issue 14): a magnetometer and a sun sensor read MuJoCo's
-attitude, with noise; every method of :mod:`xcheck.determination` estimates the attitude at every sample;
+attitude, with noise; every method of :mod:`xcheck.determination.methods` estimates the attitude at every sample;
 the estimates are compared with MuJoCo's attitude and with the error the noise predicts.
 
 The set-up is a scenario's ``[determination]`` table (every key optional; see the README):
@@ -29,9 +29,17 @@ import time
 
 import numpy as np
 
-from . import determination as det
-from .rotations import attitude_error, quat_to_dcm
-from .sensors import DEFAULT_SPEC, EXACT_TOL, MU0, PREDICTION_BAND, DeterminationSpec, observe, predicted_rms
+from ..rotations import attitude_error, quat_to_dcm
+from . import methods as det
+from .sensors import (
+    DEFAULT_SPEC,
+    EXACT_TOL,
+    MU0,
+    PREDICTION_BAND,
+    DeterminationSpec,
+    observe,
+    predicted_rms,
+)
 
 __all__ = ["run_determination"]
 
@@ -46,8 +54,8 @@ def _stats(err) -> dict:
 # --------------------------------------------------------------------------------------------------------
 def _truth_and_field(scenario, spec):
     """MuJoCo's run (t, q) and the field: (B_body from the magnetometer, B_world, source text)."""
-    from .runners import RUNNERS
-    from .study import run_context
+    from ..runners import RUNNERS
+    from ..study.context import run_context
 
     ctx = run_context(scenario)
     field = getattr(ctx.torque, "field", None)
@@ -66,7 +74,7 @@ def _truth_and_field(scenario, spec):
     B_world = MU0 * field.strength(traj.t)
     R = quat_to_dcm(traj.q)
     if field.name == "uniform" and spec.method.startswith("mujoco-"):
-        from .engines.mujoco import magnetometer_readings
+        from ..engines.mujoco import magnetometer_readings
 
         B_body = magnetometer_readings(scenario.model, traj.q, B_world[0])
         source = "MuJoCo's <magnetometer> sensor (uniform field, opt.magnetic = μ0 H) on MuJoCo's states"

@@ -1,5 +1,5 @@
 """The sensors of an attitude-determination study and their set-up (a scenario's ``[determination]`` table;
-the study itself is :mod:`xcheck.sensing`): the noise model, the observations of one noise level, and the
+the study itself is :mod:`xcheck.determination.study`): the noise model, the observations of one noise level, and the
 error the noise predicts (Shuster's covariance). Plain numpy: no engine, no study."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import determination as det
-from .fields.kernel import MU0  # [T m/A], the field models' H -> B
+from ..fields.kernel import MU0
+from . import methods as det
 
 __all__ = ["NoiseLevel", "DeterminationSpec", "DEFAULT_SPEC", "read_determination", "observe", "predicted_rms",
            "MU0", "PREDICTION_BAND", "EXACT_TOL"]
@@ -61,8 +61,8 @@ SUN_DEG = (1e-6, 10.0)
 def read_determination(reader, duration: float, torque: dict | None = None) -> DeterminationSpec:
     """The ``[determination]`` table through a :class:`xcheck.scenario._Reader` (errors name file and key).
     ``torque``: the scenario's [torque] table; a uniform field's direction is checked against the sun's."""
-    from .runners import RUNNERS, unknown_method
-    from .trajectory import check_step
+    from ..runners import RUNNERS, unknown_method
+    from ..trajectory import check_step
 
     d = DEFAULT_SPEC
     method = reader.get("method", "string", d.method)

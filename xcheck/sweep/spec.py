@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .scenario import Scenario, ScenarioError, _Reader, resolve_scenario
+from ..scenario import Scenario, ScenarioError, _Reader, resolve_scenario
 
 try:
     import tomllib
@@ -170,7 +170,7 @@ def cell_id(params: dict) -> str:
 
 def bundled_sweeps() -> dict[str, Path]:
     """Bundled sweep names -> files (``models/sweeps/*.toml``)."""
-    from .models import BUNDLED_MODELS
+    from ..paths import BUNDLED_MODELS
 
     return {p.stem: p for p in sorted((BUNDLED_MODELS / "sweeps").glob("*.toml"))}
 
@@ -217,7 +217,7 @@ def _sizes(axes: list[Axis]) -> list[int]:
 
 
 def _read(path: Path, top: _Reader, data: dict, max_cells: int | None = None) -> SweepSpec:
-    from .runners import RUNNERS, unknown_method
+    from ..runners import RUNNERS, unknown_method
 
     for key in data:
         if key not in _TOP_KEYS:
@@ -288,8 +288,8 @@ def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int, 
     """Refuse, before anything runs, an axis value the base scenario cannot take: a model xcheck cannot load
     (or without the dipole the base's magnetic torque needs), inertia no rigid body has, a field model without
     a key it requires, a scale of a zero rate, a field parameter its model refuses."""
-    from .body import validate_inertia
-    from .models import ModelError, load_body
+    from ..body import validate_inertia
+    from ..models import ModelError, load_body
 
     def refuse(message):
         raise SweepError(f"{path}: [axes.{axis.name}] {message}")
@@ -297,7 +297,7 @@ def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int, 
     if axis.name in ("rate_scale", "rate_direction") and not np.any(base.omega0):
         refuse(f"the base scenario {base.name} starts at rest: there is no rate to scale or turn")
     if axis.name == "dt":
-        from .scenario import check_steps
+        from ..scenario import check_steps
 
         try:
             check_steps(sorted(set(axis.grid(seed)), reverse=True), base.duration)
@@ -319,14 +319,14 @@ def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int, 
             except ValueError as exc:
                 refuse(f"{value}: {str(exc).removeprefix('inertia: ')}")
         if axis.name == "field":
-            from .fields import FIELDS
+            from ..fields import FIELDS
 
             missing = [k for k, key in FIELDS[value].keys.items() if key.required and k not in base.torque]
             if missing:
                 refuse(f"the field model {value!r} needs {', '.join(missing)}, which the base's [torque] does not "
                        "give")
         if axis.name == "model" or axis.name == "field" or axis.name.startswith("field.") or "dipole" in axis.name:
-            from .scenario import build_torque
+            from ..scenario import build_torque
 
             sc = apply_cell(base, {axis.name: value})
             try:
@@ -391,8 +391,8 @@ def apply_cell(base: Scenario, params: dict) -> Scenario:
     scale), then inertia, dipole, field, attitude and rate."""
     import dataclasses
 
-    from .fields import FIELDS
-    from .models import load_body
+    from ..fields import FIELDS
+    from ..models import load_body
 
     sc = dataclasses.replace(base, torque=dict(base.torque) if base.torque else None)
     if "model" in params:
@@ -432,7 +432,7 @@ def apply_cell(base: Scenario, params: dict) -> Scenario:
 
 
 def _read_axis(path: Path, name: str, table, base: Scenario, combine: str) -> Axis:
-    from .fields import FIELDS
+    from ..fields import FIELDS
 
     def refuse(message):
         raise SweepError(f"{path}: [axes.{name}] {message}")
@@ -546,7 +546,7 @@ def _value(ax: _Reader, key: str, kind: str, v, path: Path):
         if not isinstance(v, str):
             bad("strings")
         if ax.section == "axes.field":
-            from .fields import FIELDS
+            from ..fields import FIELDS
 
             if v not in FIELDS:
                 ax.fail(key, f"unknown field model {v!r}; expected one of {', '.join(FIELDS)}")

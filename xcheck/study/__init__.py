@@ -1,0 +1,207 @@
+"""Convergence studies: every method x every step of a scenario against its reference, in worker
+processes (deterministic: each run is independent), producing results of schema ``xcheck.convergence/1``
+plus the sampled series the report plots.
+
+The package: this module plans the studies and assembles their results (:class:`StudyResult`);
+:mod:`~xcheck.study.executor` runs the tasks, :mod:`~xcheck.study.context` holds what a worker keeps per
+scenario, :mod:`~xcheck.study.measure` measures a method in a worker, :mod:`~xcheck.study.checks` makes the
+checks and verdicts."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..metrics import (
+    TOLERANCES,
+    StepWithin,
+    largest_step_within,
+    observed_order,
+    tolerance_key,
+)
+from ..results import Check, MethodResult
+from ..runners import RUNNERS
+from ..scenario import Scenario, check_steps
+from ..versions import versions
+from .checks import adaptive_note, planned_checks, study_checks, study_floor, verdict
+from .executor import map_tasks, prefer_here
+from .measure import PLOT_SAMPLE_DT, run_method
+
+__all__ = ["run_study", "run_studies", "assemble", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows",
+           "planned_checks", "default_methods", "comparison_partner"]
+
+SCHEMA = "xcheck.convergence/1"
+
+
+@dataclass
+class StudyResult:
+    """A study's findings, typed (:mod:`xcheck.results`): the scenario, its steps (coarse to fine), every
+    method's result, the checks; ``series``: per method, the sampled finest good run (``t``, ``q``, ``omega``,
+    ``attitude_error``, ``energy``, ``momentum``, ``euler``) and the reference on the same times, for plots and
+    CSV. :attr:`data` is the JSON (schema ``xcheck.convergence/1``)."""
+
+    scenario: Scenario
+    steps: list
+    methods: dict  # name -> MethodResult
+    checks: list  # of Check
+    order_floor: float
+    quick: bool = False
+    series: dict = field(default_factory=dict)
+    comparisons: list = field(default_factory=list)  # {"a", "b", "dt", "max_attitude_difference"}
+    versions: dict = field(default_factory=versions)
+
+    @property
+    def name(self) -> str:
+        return self.scenario.name
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+    @property
+    def data(self) -> dict:
+        sc = self.scenario
+        return {"schema": SCHEMA, "scenario": sc.name, "description": sc.description, "model": str(sc.model),
+                "duration": sc.duration, "reference": sc.reference, "torque": sc.torque,
+                "initial": {"quaternion": sc.q0.tolist(), "angular_velocity": sc.omega0.tolist(),
+                            "euler_sequence": sc.sequence},
+                "quick": self.quick, "steps": list(self.steps), "order_floor": self.order_floor,
+                "versions": self.versions, "methods": {n: m.to_json() for n, m in self.methods.items()},
+                "checks": [c.to_json() for c in self.checks], "passed": self.passed,
+                "comparisons": list(self.comparisons)}
+
+
+def default_methods(scenario: Scenario) -> list[str]:
+    return list(scenario.methods) if scenario.methods else list(RUNNERS)
+
+
+def comparison_partner(scenario: Scenario, method: str, methods) -> str | None:
+    """Which of our methods an engine's method is compared with directly, trajectory against trajectory at
+    the same step (no reference needed): its twin (the same scheme: MuJoCo's RK4 and ``lie-rkmk4``, Basilisk's
+    and ``mrp-rk4``) when the study has it, else one of the same order, the scenario's ``reference_method`` first,
+    then ``lie-rkmk4``; for an engine method of an order none of ours has (MuJoCo's first-order ones), our
+    highest-order method, so that the difference measures the engine's own error. None for our methods, or
+    when the study has none of ours to compare with."""
+    runner = RUNNERS[method]
+    if runner.engine == "xcheck" or runner.adaptive:  # an adaptive method's runs share one output step
+        return None
+    ours = [m for m in methods if RUNNERS[m].engine == "xcheck" and RUNNERS[m].expected_order is not None
+            and m not in scenario.checks.get("expected_to_fail", ())]
+    if not ours:
+        return None
+    if runner.twin in ours:  # the same scheme as the engine's: their difference is the engine's own
+        return runner.twin
+    preferred = sorted(ours, key=lambda m: (m != scenario.reference_method, m != "lie-rkmk4"))
+    same = [m for m in preferred if RUNNERS[m].expected_order == runner.expected_order]
+    return same[0] if same else max(preferred, key=lambda m: RUNNERS[m].expected_order)
+
+
+def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = False, workers: int | None = None,
+              progress=None, pool=None, timing: bool = True, here: bool = False) -> StudyResult:
+    """Run the convergence study of ``scenario``.
+
+    ``methods``/``steps`` override the scenario's; ``quick`` uses its ``quick_steps`` (and an adaptive method
+    its ``quick_tolerances``). ``workers`` processes (default: the CPU count; 1 runs in this process).
+    ``progress(done, total, label)`` is called as runs finish. ``pool`` reuses an existing executor (the report
+    runs all scenarios in one).
+    """
+    methods = list(methods) if methods else default_methods(scenario)
+    steps_given = steps is not None
+    for m in methods:
+        if m not in RUNNERS:
+            raise ValueError(f"methods: unknown {m!r}; expected one of {', '.join(RUNNERS)}")
+    steps = sorted((float(s) for s in (steps or (scenario.quick_steps if quick else scenario.steps))), reverse=True)
+    try:
+        check_steps(steps, scenario.duration)
+    except ValueError as exc:
+        raise ValueError(f"steps: {exc}") from None
+    tolerances = scenario.quick_tolerances if quick else scenario.tolerances
+    tasks = [(scenario, m, tuple(steps), comparison_partner(scenario, m, methods), tolerances, timing) for m in methods]
+    results = map_tasks(run_method, tasks, workers=workers, progress=progress, pool=pool,
+                   labels=[f"{scenario.name}: {m}" for m in methods], here=prefer_here if here else None)
+    return assemble(scenario, steps, results, quick=quick and not steps_given)
+
+
+def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, progress=None,
+                pool=None, on_study=None, here: bool = False) -> list[StudyResult]:
+    """Several studies over one pool of worker processes: every (scenario, method) pair is one task,
+    submitted together so that both cores stay busy to the end. ``on_study(study)`` is called as soon as a
+    scenario's last task is in (the report submits its figures then, behind the studies still queued). ``here``:
+    this process runs tasks too, beside ``pool``."""
+    plans = []
+    for sc in scenarios:
+        methods = default_methods(sc)
+        steps = sorted((float(s) for s in (sc.quick_steps if quick else sc.steps)), reverse=True)
+        plans.append((sc, methods, steps))
+    tasks = [(sc, m, tuple(steps), comparison_partner(sc, m, methods), sc.quick_tolerances if quick else sc.tolerances)
+             for sc, methods, steps in plans for m in methods]
+    labels = [f"{sc.name}: {m}" for sc, methods, _ in plans for m in methods]
+    owner = [k for k, (_, methods, _) in enumerate(plans) for _ in methods]
+    first = np.cumsum([0] + [len(methods) for _, methods, _ in plans])
+    missing = [len(methods) for _, methods, _ in plans]
+    studies: list = [None] * len(plans)
+    results: list = [None] * len(tasks)
+
+    def done(i, result):
+        results[i] = result
+        k = owner[i]
+        missing[k] -= 1
+        if missing[k] == 0:
+            sc, _, steps = plans[k]
+            studies[k] = assemble(sc, steps, results[first[k]:first[k + 1]], quick=quick)
+            if on_study:
+                on_study(studies[k])
+
+    map_tasks(run_method, tasks, workers=workers, progress=progress, pool=pool, labels=labels, on_result=done,
+         here=prefer_here if here else None)
+    return studies
+
+
+def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> StudyResult:
+    """Orders, checks and verdicts from the workers' results. ``quick``: the final-error and invariant
+    checks, which are about the finest steps of the full study, are not applied."""
+    floor = study_floor(results)
+    methods, series = {}, {}
+    for res in results:
+        name = res["method"]
+        runner = RUNNERS[name]
+        runs = res["runs"]
+        x = [r.setting for r in runs]
+        fit = observed_order(x, [r.attitude_error for r in runs], floor=floor)
+        within = {tolerance_key(tol): largest_step_within(
+            x, [r.max_attitude_error if r.ok else None for r in runs], [r.wall_time for r in runs], tol)
+            for tol in TOLERANCES}
+        order, note, local = fit.order, fit.note, fit.local_orders
+        if runner.adaptive:  # its ladder is of tolerances: the slope is its tolerance proportionality, not an order
+            order, local, note = None, [], adaptive_note(runs, fit)
+            within = {k: StepWithin(None, w.wall_time, w.how, rtol=w.dt) for k, w in within.items()}
+        methods[name] = MethodResult(name=name, engine=runner.engine,
+                                     expected_order=runner.order_for(scenario.torque)[0],
+                                     runs=runs, observed_order=order, order_note=note,
+                                     local_orders=local, within=within)
+        if res["series"] is not None:
+            series[name] = res["series"]
+    reference_error = next((res["reference_error"] for res in results if res.get("reference_error")), None)
+    if reference_error:
+        checks = [Check("reference", False, note=f"the {scenario.reference} reference could not be computed: "
+                                                 f"{reference_error}")]
+    else:
+        checks = study_checks(scenario, methods, scenario.checks, quick)
+    for m in methods.values():
+        m.verdict = verdict(m.name, checks)
+    comparisons = [c for res in results for c in res.get("comparisons", ())]
+    return StudyResult(scenario=scenario, steps=list(steps), methods=methods, checks=checks, order_floor=floor,
+                       quick=quick, series=series, comparisons=comparisons)
+
+
+def throughput_rows(studies) -> list[dict]:
+    """Best steps per second of every method in every study (``xcheck.bench/1`` rows, batch 1)."""
+    rows = []
+    for st in studies:
+        for name, m in st.methods.items():
+            rates = [r.steps_per_second for r in m.runs if r.steps_per_second]
+            if rates:
+                rows.append({"engine": m.engine, "method": name, "scenario": st.name, "batch": 1,
+                             "steps_per_second": max(rates)})
+    return rows

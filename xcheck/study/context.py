@@ -1,0 +1,97 @@
+"""What a worker keeps per scenario (one process runs several methods of it): the run context (the body, its
+torque, the initial state) and the reference, both cached per process, a reference that failed included."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..reference import ReferenceFailure, dop853_solution, exact_torque_free
+from ..runners import RUNNERS, RunContext
+from ..scenario import Scenario, build_torque
+
+__all__ = ["run_context", "scenario_reference", "scenario_key"]
+
+_CACHE: dict = {}
+
+
+def scenario_key(scenario: Scenario):
+    return (str(scenario.path), scenario.name, str(scenario.model), scenario.duration, tuple(scenario.q0),
+            tuple(scenario.omega0), scenario.sequence, repr(scenario.torque), scenario.reference,
+            scenario.reference_method, scenario.reference_dt, scenario.inertia)
+
+
+def _cached(kind, scenario, make):
+    """Per-process cache of a scenario's run context and reference (a worker runs several methods); a
+    :class:`ReferenceFailure` is cached too, so that a reference over budget is tried once per process."""
+    key = (kind, scenario_key(scenario))
+    if key not in _CACHE:
+        if len(_CACHE) > 16:
+            _CACHE.clear()
+        try:
+            _CACHE[key] = make()
+        except ReferenceFailure as exc:
+            _CACHE[key] = exc
+    if isinstance(_CACHE[key], ReferenceFailure):
+        raise _CACHE[key]
+    return _CACHE[key]
+
+
+def run_context(scenario: Scenario) -> RunContext:
+    def make():
+        from ..models import load_body
+
+        body = load_body(scenario.model)
+        moments = scenario.inertia
+        return RunContext(inertia=body.inertia if moments is None else body.inertia_with(moments),
+                          model_path=str(scenario.model), q0=scenario.q0, omega0=scenario.omega0,
+                          duration=scenario.duration, torque=build_torque(scenario, body), sequence=scenario.sequence,
+                          model_moments=None if moments is None else tuple(moments))
+    return _cached("context", scenario, make)
+
+
+class _Reference:
+    """The reference of a scenario, evaluated on any run's grid (cached per process)."""
+
+    def __init__(self, scenario: Scenario, ctx: RunContext):
+        self.kind = scenario.reference
+        self.scenario, self.ctx = scenario, ctx
+        self._grids = []
+        if self.kind == "exact":  # fails early when the body turns too fast for the quadrature
+            exact_torque_free(ctx.inertia, ctx.q0, ctx.omega0, np.array([0.0, ctx.duration]))
+        elif self.kind == "dop853":
+            self.dense = dop853_solution(ctx.inertia, ctx.q0, ctx.omega0, ctx.duration, torque=ctx.torque)
+        elif self.kind == "fine":
+            runner = RUNNERS[scenario.reference_method]
+            self.fine = runner.run(ctx, scenario.reference_dt)
+            if not self.fine.ok:
+                raise ReferenceFailure(f"the fine reference ({scenario.reference_method} at {scenario.reference_dt:g} "
+                                       f"s) did not complete: {self.fine.message}")
+
+    def at(self, t):
+        """(q, omega, mask): reference values at the times ``t`` where it is defined (``mask``). The last few
+        grids asked for are kept: every method of a scenario runs on the same grids, and a worker runs several."""
+        t = np.asarray(t, dtype=float)
+        for grid, values in self._grids:
+            if len(grid) == len(t) and np.array_equal(grid, t):
+                return values
+        values = self._at(t)
+        self._grids = [(t.copy(), values), *self._grids[:15]]
+        return values
+
+    def _at(self, t):
+        if self.kind == "exact":
+            q, w = exact_torque_free(self.ctx.inertia, self.ctx.q0, self.ctx.omega0, t)
+            return q, w, np.ones(len(t), bool)
+        if self.kind == "dop853":
+            q, w = self.dense(t)
+            return q, w, np.ones(len(t), bool)
+        # fine: only at times on its own grid (its last point is the duration, whatever the step)
+        dt, last = self.scenario.reference_dt, len(self.fine.t) - 1
+        at_end = np.abs(t - self.fine.t[-1]) <= 1e-12
+        idx = np.where(at_end, last, np.clip(np.rint(t / dt).astype(np.int64), 0, last))
+        on_grid = at_end | (np.abs(idx * dt - t) <= 1e-9 * np.maximum(1.0, t))
+        return self.fine.q[idx], self.fine.omega[idx], on_grid
+
+
+def scenario_reference(scenario: Scenario) -> _Reference:
+    return _cached("reference", scenario, lambda: _Reference(scenario, run_context(scenario)))

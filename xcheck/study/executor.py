@@ -1,0 +1,89 @@
+"""Where a study's tasks run: in this process, in a pool of workers, or shared between the two (the report's
+and the converge command's way: this process works beside a pool whose workers import a costly engine)."""
+
+from __future__ import annotations
+
+from concurrent.futures import FIRST_COMPLETED, as_completed, wait
+
+from ..engines import ENGINES
+from ..pool import ready_workers, worker_pool
+from ..runners import RUNNERS
+
+__all__ = ["map_tasks", "prefer_here"]
+
+
+def prefer_here(task) -> bool:
+    """The tasks this process takes first when it works beside a pool: not those of an engine whose import
+    is costly (:attr:`xcheck.engines.Engine.to_workers`: the workers import it as they start)."""
+    engine = ENGINES.get(RUNNERS[task[1]].engine)  # None: ours
+    return engine is None or not engine.to_workers
+
+
+def map_tasks(fn, tasks, *, workers, progress, pool, labels, on_result=None, here=None):
+    """``fn(*task)`` for every task, in ``pool`` (or a pool of its own, or this process for ``workers=1``), calling
+    ``record`` as each finishes. ``here``: this process works too, beside the pool (see :func:`_map_here`); a
+    predicate that says which tasks it prefers (None: it only waits)."""
+    total = len(tasks)
+    out = [None] * total
+    count = [0]
+
+    def record(i, result):
+        out[i] = result
+        count[0] += 1
+        if on_result:
+            on_result(i, result)
+        if progress:
+            progress(count[0], total, labels[i])
+
+    if pool is None and (workers == 1 or total == 1):
+        for i, task in enumerate(tasks):
+            record(i, fn(*task))
+        return out
+    if pool is None:
+        with worker_pool(workers) as own:
+            return map_tasks(fn, tasks, workers=workers, progress=progress, pool=own, labels=labels, on_result=on_result,
+                        here=here)
+    if here is not None:
+        _map_here(fn, tasks, pool, record, here)
+        return out
+    futures = {pool.submit(fn, *task): i for i, task in enumerate(tasks)}
+    for fut in as_completed(futures):
+        record(futures[fut], fut.result())
+    return out
+
+
+def _map_here(fn, tasks, pool, record, prefer) -> None:
+    """Share ``tasks`` between ``pool`` and this process. The pool takes them from the front of a queue in which
+    the tasks this process would rather not run come first (``prefer(task)`` False: those of an engine the
+    workers import as they start), kept one task ahead of its workers so that what else is submitted to it, a
+    scenario's figures, is not queued behind every study, and given none before one of them has started (a task
+    waiting for a worker's imports is better run here); this process takes them from the back, collecting
+    finished results between its own, and the workers' own too when more are left than the workers take next.
+    Every process pays its imports and compiled-code loading once (1-3 s): a worker fewer, and this process
+    working, is that much less to pay."""
+    pending = sorted(range(len(tasks)), key=lambda i: bool(prefer(tasks[i])))  # stable: the given order within
+    futures: dict = {}
+
+    def collect(block: bool):
+        if block and futures:
+            wait(list(futures), return_when=FIRST_COMPLETED)
+        for fut in [f for f in futures if f.done()]:
+            record(futures.pop(fut), fut.result())
+
+    workers = getattr(pool, "_max_workers", 1) or 1
+    while pending or futures:
+        ready = ready_workers(pool)
+        # the workers' own tasks wait for them however long they take to start; another task goes to a worker
+        # only once one has started (this process would otherwise wait for it)
+        while pending and len(futures) < workers + 1 and (ready or not prefer(tasks[pending[0]])):
+            i = pending.pop(0)
+            futures[pool.submit(fn, *tasks[i])] = i
+        collect(block=False)
+        if not pending:
+            collect(block=True)
+            continue
+        if not prefer(tasks[pending[-1]]) and futures and len(pending) <= workers:
+            collect(block=True)  # the workers' own, and no more than they take next: wait for them
+            continue
+        i = pending.pop()
+        record(i, fn(*tasks[i]))

@@ -1,0 +1,229 @@
+"""Measuring a method (in a worker): every run of it against the scenario's reference, timed the way ``timeit``'s
+autorange does, the direct comparison with its partner, and the finest good run sampled for the figures."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from .. import rotations as rot
+from ..metrics import errors_against, invariant_drift
+from ..reference import ReferenceFailure
+from ..results import Run
+from ..runners import RUNNERS, RunContext
+from ..scenario import Scenario
+from ..trajectory import step_plan
+from .context import run_context, scenario_key, scenario_reference
+
+__all__ = ["run_method", "measure_method", "measure_run", "timed_run", "settings", "PLOT_SAMPLE_DT"]
+
+#: Series kept for plots and CSV are sampled at this spacing [s] (or every step, if coarser).
+PLOT_SAMPLE_DT = 1 / 256
+_PARTNER_RUNS: dict = {}  # (scenario key, partner, dt) -> Trajectory | None (see _difference)
+
+
+def run_method(scenario: Scenario, method: str, steps: tuple, partner: str | None = None,
+                tolerances: tuple | None = None, timing: bool = True) -> dict:
+    """All steps of one method (in a worker): per-run metrics, the sampled finest good run, and with a
+    ``partner`` (:func:`comparison_partner`) the largest attitude difference between the two at every step."""
+    import warnings
+
+    warnings.filterwarnings("ignore", category=UserWarning, module="xcheck.models")
+    try:
+        return measure_method(scenario, method, steps, partner, tolerances=tolerances, timing=timing)
+    except ReferenceFailure as exc:  # building or evaluating it: nothing can be measured, the study fails with
+        return {"method": method, "runs": [Run.failed(dt, "failed", f"no reference: {exc}", 0.0, rtol)  # the reason
+                                           for dt, rtol in settings(scenario, RUNNERS[method], steps, tolerances)],
+                "series": None, "reference_error": str(exc), "comparisons": []}
+
+
+def settings(scenario: Scenario, runner, steps, tolerances=None) -> list[tuple[float, float | None]]:
+    """``(dt, rtol)`` of every run of a method: each step (coarse to fine) with no tolerance, or for an adaptive
+    method each of its tolerances (loose to tight; default: the scenario's full ladder) at the scenario's
+    ``adaptive_step``."""
+    if runner.adaptive:
+        return [(scenario.adaptive_step, float(tol)) for tol in (tolerances or scenario.tolerances)]
+    return [(float(dt), None) for dt in steps]
+
+
+def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str | None, sample: bool = True,
+                   tolerances: tuple | None = None, timing: bool = True) -> dict:
+    """One method at every step of a scenario (an adaptive method: at every tolerance of ``tolerances``), run
+    one at a time (what :func:`assemble` takes): its runs, with a ``partner`` the direct comparisons, and with
+    ``sample`` the finest good run sampled for the figures (a sweep, which draws none, skips it)."""
+    ctx = run_context(scenario)
+    ref = scenario_reference(scenario)
+    runner = RUNNERS[method]
+    plan = settings(scenario, runner, steps, tolerances)
+    _warm(runner, ctx, plan)
+    runs, finest, comparisons = [], None, []
+    for dt, rtol in plan:
+        t0 = time.perf_counter()
+        try:
+            traj, wall, repeats = timed_run(runner, ctx, dt, rtol, max_runs=TIMING_REPEATS if timing else 1)
+        except ValueError as exc:  # e.g. a step the run cannot take
+            runs.append(Run.failed(dt, "failed", f"{method}: {exc}", time.perf_counter() - t0, rtol))
+            continue
+        run = measure_run(method, traj, ref, ctx, dt, wall, repeats=repeats, rtol=rtol)
+        runs.append(run)
+        if not run.ok:
+            continue
+        if timing:
+            _retime_outliers(runner, ctx, runs)
+        finest = (dt, traj)
+        if partner is not None:
+            difference = _difference(scenario, ctx, traj, partner, dt)
+            if difference is not None:
+                comparisons.append({"a": method, "b": partner, "dt": dt, "max_attitude_difference": difference})
+    series = _sample(finest, ref, ctx) if finest is not None and sample else None
+    return {"method": method, "runs": runs, "series": series, "comparisons": comparisons}
+
+
+#: A run shorter than this [s] is repeated (up to :data:`TIMING_REPEATS` runs in all) until this much time is
+#: spent, and its wall time is the best of those runs (``timeit``'s autorange, bounded): most runs of a quick
+#: study take 0.1-5 ms, where one measurement is mostly timer noise and cache effects.
+TIMING_BUDGET = 0.01
+TIMING_REPEATS = 5
+
+
+def timed_run(runner, ctx, dt: float, rtol: float | None = None, *, max_runs: int = TIMING_REPEATS):
+    """``(trajectory, best wall time [s], runs timed)`` of ``runner`` at ``dt`` (and ``rtol``, an adaptive
+    method's): repeated while short, up to ``max_runs`` runs (see :data:`TIMING_BUDGET`); the trajectory is the
+    first run's (every run computes the same numbers)."""
+    t0 = time.perf_counter()
+    traj = runner.run_at(ctx, dt, rtol)
+    best = spent = time.perf_counter() - t0
+    runs = 1
+    while traj.ok and runs < max_runs and spent < TIMING_BUDGET:
+        t0 = time.perf_counter()
+        runner.run_at(ctx, dt, rtol)
+        wall = time.perf_counter() - t0
+        best, spent, runs = min(best, wall), spent + wall, runs + 1
+    return traj, best, runs
+
+
+def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float, *, repeats: int | None = None,
+                rtol: float | None = None) -> Run:
+    """One run's metrics against the reference ``ref`` (a failed :class:`Run` when the trajectory stopped or
+    its errors are not finite); ``wall`` [s] is its wall time (the best of ``repeats`` runs), ``rtol`` an
+    adaptive method's tolerance."""
+    if not traj.ok:
+        return Run.failed(dt, traj.status, traj.message, wall, rtol)
+    q_ref, w_ref, mask = ref.at(traj.t)  # at the trajectory's own times (an engine's clock may round the step)
+    err = errors_against(_subset(traj, mask), q_ref[mask], w_ref[mask])
+    drift = invariant_drift(ctx.inertia, traj)
+    torque_free = ctx.torque is None
+    run = Run(dt=dt, **err, energy_drift=drift["energy_drift"] if torque_free else None,
+              momentum_drift=drift["momentum_drift"] if torque_free else None, norm_drift=drift["norm_drift"],
+              wall_time=wall, steps_per_second=_steps_per_second(dt, ctx.duration, wall),
+              message=traj.extras.get("clock") or "", repeats=repeats, evaluations=traj.extras.get("evaluations"), rtol=rtol)
+    if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
+        return Run.failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall, rtol)
+    return run
+
+
+#: A run timed again because a run with more work took less time is re-run this many times more, at most.
+RETIME_REPEATS = 3
+
+
+def _retime_outliers(runner, ctx, runs) -> None:
+    """Where the last run did more work than the good run before it (more evaluations, or a finer step or
+    tolerance where the engine counts none) yet took less time, the earlier one met some noise (another process,
+    the machine): it is timed again, up to :data:`RETIME_REPEATS` more runs, and keeps its best. Going back while
+    that leaves its own predecessor slower, the work-precision line then runs forward wherever the work decides
+    the time (where a run's fixed cost does, the two times are the same within noise)."""
+    good = [r for r in runs if r.ok and r.wall_time is not None]
+    for k in range(len(good) - 1, 0, -1):
+        before, after = good[k - 1], good[k]
+        if after.wall_time >= before.wall_time or not _more_work(after, before):
+            return
+        for _ in range(RETIME_REPEATS):
+            t0 = time.perf_counter()
+            runner.run_at(ctx, before.dt, before.rtol)
+            before.wall_time = min(before.wall_time, time.perf_counter() - t0)
+            before.repeats = (before.repeats or 1) + 1
+            if before.wall_time <= after.wall_time:
+                break
+        before.steps_per_second = _steps_per_second(before.dt, ctx.duration, before.wall_time)
+
+
+def _steps_per_second(dt: float, duration: float, wall: float) -> float | None:
+    n, _ = step_plan(dt, duration)
+    return n / wall if wall > 0 else None
+
+
+def _more_work(a: Run, b: Run) -> bool:
+    if a.evaluations is not None and b.evaluations is not None:
+        return a.evaluations > b.evaluations
+    return a.setting < b.setting
+
+
+_WARM: set = set()
+
+
+def _warm(runner, ctx, plan) -> None:
+    """Load (or compile) a method's kernels, and what its runs load on the way for this scenario's torque (an
+    engine's held-input module, its MuJoCo model), before its runs are timed: the first call in a process would
+    otherwise charge a coarse step's wall time with ~10-200 ms of loading (the work-precision figure and the
+    step-size table read those times)."""
+    key = (runner.name, ctx.model_path, type(ctx.torque).__name__, getattr(getattr(ctx.torque, "field", None), "name", None))
+    if key in _WARM or not plan:
+        return
+    _WARM.add(key)
+    dt, rtol = min(plan)
+    try:
+        short = dataclasses.replace(ctx, duration=min(ctx.duration, 2 * dt))
+        runner.run_at(short, dt, rtol)
+    except ValueError:
+        pass  # the timed runs will say why
+
+
+def _difference(scenario, ctx, traj, partner: str, dt: float) -> float | None:
+    """The largest attitude difference [rad] over the run between ``traj`` and ``partner`` at the same step
+    (None when the partner's run did not complete). The partner's runs are kept per process: every engine
+    method of the scenario is compared with the same one."""
+    key = (scenario_key(scenario), partner, dt)
+    if key not in _PARTNER_RUNS:
+        if any(k[0] != key[0] for k in _PARTNER_RUNS):  # another scenario: keep one scenario's runs only
+            _PARTNER_RUNS.clear()
+        try:
+            _PARTNER_RUNS[key] = RUNNERS[partner].run(ctx, dt)
+        except ValueError:
+            _PARTNER_RUNS[key] = None
+    other = _PARTNER_RUNS[key]
+    if other is None or not other.ok or len(other.t) != len(traj.t) or not np.allclose(other.t, traj.t, rtol=0, atol=1e-12):
+        return None
+    value = float(np.max(rot.attitude_error(traj.q, other.q)))
+    return value if math.isfinite(value) else None
+
+
+def _subset(traj, mask):
+    from ..trajectory import Trajectory
+
+    return Trajectory(t=traj.t[mask], q=traj.q[mask], omega=traj.omega[mask])
+
+
+def _sample(finest, ref, ctx):
+    """The finest good run sampled every PLOT_SAMPLE_DT (and its reference, errors and invariants)."""
+    from ..metrics import kinetic_energy, world_momentum
+
+    dt, traj = finest
+    stride = max(1, int(round(PLOT_SAMPLE_DT / dt)))
+    idx = np.unique(np.concatenate([np.arange(0, len(traj.t), stride), [len(traj.t) - 1]]))
+    t = traj.t[idx]
+    q_ref, w_ref, mask = ref.at(t)
+    q = traj.q[idx]
+    out = {"dt": dt, "t": t, "q": q, "omega": traj.omega[idx], "q_ref": q_ref, "omega_ref": w_ref, "ref_mask": mask,
+           "attitude_error": np.where(mask, rot.attitude_error(q, q_ref), np.nan)}
+    E = kinetic_energy(ctx.inertia, out["omega"])
+    H = world_momentum(ctx.inertia, q, out["omega"])
+    out["energy_drift"] = E / E[0] - 1 if E[0] > 0 else np.zeros_like(E)
+    out["momentum_drift"] = np.linalg.norm(H - H[0], axis=1) / max(np.linalg.norm(H[0]), 1e-300)
+    if "euler" in traj.extras:
+        out["euler"] = traj.extras["euler"][idx]
+    if ctx.torque is not None:
+        out["torque"] = ctx.torque.many(t, q, out["omega"])
+    return out
