@@ -6,7 +6,7 @@ import dataclasses
 
 import pytest
 
-from xcheck.results import Run
+from xcheck.results import MethodRuns, Run
 from xcheck.runners import RUNNERS
 from xcheck.scenario import resolve_scenario
 from xcheck.study import assemble, run_study
@@ -27,7 +27,7 @@ def scenario():
 
 
 def result(method, rs, **extra):
-    return {"method": method, "runs": rs, "series": None, **extra}
+    return MethodRuns(method, rs, **extra)
 
 
 def test_orders_and_checks(scenario):

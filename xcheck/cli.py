@@ -254,14 +254,10 @@ def _converge(args, pool) -> int:
 
 
 def _cmd_run(args) -> int:
-    import numpy as np
-
-    from . import rotations as rot
-    from .reference import ReferenceFailure
     from .report.io import check_output_file, write_trajectory_csv
     from .runners import RUNNERS
     from .scenario import resolve_scenario
-    from .study.context import run_context, scenario_reference
+    from .study.single import run_once
     from .trajectory import check_step
 
     scenario = resolve_scenario(args.scenario)
@@ -284,58 +280,28 @@ def _cmd_run(args) -> int:
         check_output_file(args.plot, "--plot", suffixes=PLOT_SUFFIXES)
     if clock_note:
         print(f"note: {clock_note}")
-    ctx = run_context(scenario)
-    t0 = time.perf_counter()
-    traj = runner.run_at(ctx, args.dt, args.rtol)
-    wall = time.perf_counter() - t0
+    one = run_once(scenario, runner, args.dt, args.rtol)
+    traj, err = one.traj, one.error
     print(f"{scenario.name} / {args.method} at dt = {args.dt:g} s: {traj.status} ({len(traj.t) - 1} steps, "
-          f"{wall:.3g} s)")
+          f"{one.wall_time:.3g} s)")
     if traj.message:
         print(f"  {traj.message}")
-    try:
-        ref = scenario_reference(scenario)
-    except ReferenceFailure as exc:
-        ref = None
-        print(f"  no reference: {exc}")
-    err = np.full(len(traj.t), np.nan)
-    if ref is not None:
-        q_ref, w_ref, mask = ref.at(traj.t)
-        err = np.where(mask, rot.attitude_error(traj.q, q_ref), np.nan)
-        if mask[-1] and traj.ok:
-            print(f"  attitude error at t = {traj.t[-1]:g} s: {err[-1]:.3e} rad (against the {scenario.reference} "
-                  f"reference); max over the grid {np.nanmax(err):.3e} rad")
-            print(f"  body-rate error at the end: {np.linalg.norm(traj.omega[-1] - w_ref[-1]):.3e} rad/s")
+    if one.no_reference:
+        print(f"  no reference: {one.no_reference}")
+    elif one.measured_at_end:
+        print(f"  attitude error at t = {traj.t[-1]:g} s: {err[-1]:.3e} rad (against the {scenario.reference} "
+              f"reference); max over the grid {one.max_error:.3e} rad")
+        print(f"  body-rate error at the end: {one.rate_error:.3e} rad/s")
     if args.csv:
         write_trajectory_csv(args.csv, f"{scenario.name} / {args.method}, dt = {args.dt:g} s, status {traj.status}",
                              traj.t, traj.q, traj.omega, err, traj.extras.get("euler"))
         print(f"  trajectory: {args.csv}")
     if args.plot:
-        _plot_run(args.plot, f"{scenario.name} / {args.method}, dt = {args.dt:g} s", traj, err)
+        from .report.plots import run_figure
+
+        run_figure(args.plot, f"{scenario.name} / {args.method}, dt = {args.dt:g} s", traj, err)
         print(f"  plot: {args.plot}")
-    return EXIT_OK if traj.ok and ref is not None else EXIT_CHECK_FAILED
-
-
-def _plot_run(path, title, traj, err):
-    """Quaternion, body rates and attitude error of one run, in the format of ``path``'s ending."""
-    import numpy as np
-
-    from .report.plots import new_figure, save_figure
-
-    fig, axes = new_figure(3, 1, figsize=(7.5, 7), sharex=True)
-    for k, c in enumerate("wxyz"):
-        axes[0].plot(traj.t, traj.q[:, k], label=f"q{c}")
-    for k, c in enumerate("xyz"):
-        axes[1].plot(traj.t, traj.omega[:, k], label=f"ω{c}")
-    if np.any(np.isfinite(err)):
-        axes[2].semilogy(traj.t, np.maximum(err, 1e-17))
-    axes[0].legend(ncol=4)
-    axes[1].legend(ncol=3)
-    axes[0].set_ylabel("quaternion")
-    axes[1].set_ylabel("body rate [rad/s]")
-    axes[2].set_ylabel("attitude error [rad]")
-    axes[2].set_xlabel("t [s]")
-    axes[0].set_title(title)
-    save_figure(fig, path)
+    return EXIT_OK if one.ok else EXIT_CHECK_FAILED
 
 
 def _cmd_report(args) -> int:
@@ -474,7 +440,7 @@ def _cmd_determine(args) -> int:
         print("\n".join(report_lines(rep)))
         return EXIT_OK if rep["passed"] else EXIT_CHECK_FAILED
     from .determination.sensors import DEFAULT_SPEC
-    from .determination.study import run_determination
+    from .determination.study import run_determination, summary_lines
     from .scenario import resolve_scenario
 
     scenario = resolve_scenario(args.scenario)
@@ -486,7 +452,7 @@ def _cmd_determine(args) -> int:
         print(f"{scenario.name} has no [determination] table: the defaults (see the README)", file=sys.stderr)
     spec = scenario.determination or DEFAULT_SPEC
     data, series = run_determination(scenario, spec)
-    for line in determination_lines(data):
+    for line in summary_lines(data):
         print(line)
     if args.json:
         from .report.io import write_json_atomic
@@ -499,35 +465,6 @@ def _cmd_determine(args) -> int:
         _WRITTEN.append(folder)
         print(f"report: {folder}/index.html")
     return EXIT_OK if data["passed"] else EXIT_CHECK_FAILED
-
-
-def determination_lines(data: dict) -> list[str]:
-    """A determination study as text: the statistics per noise level and method, the checks, the approach."""
-    tr = data["truth"]
-    lines = [f"attitude determination on {data['scenario']}: truth {tr['method']} every {tr['dt']:g} s "
-             f"({tr['samples']} samples); magnetometer: {data['magnetometer']}",
-             f"sun direction {[round(x, 4) for x in data['sun_direction']]}, {data['angle_deg']['min']:.1f}-"
-             f"{data['angle_deg']['max']:.1f} deg from the field; noise seed {data['seed']}", "",
-             f"{'noise':16s} {'method':9s} {'RMS [rad]':>10s} {'predicted':>10s} {'ratio':>6s} {'max [rad]':>10s} "
-             f"{'near-deg.':>9s} {'solutions/s':>11s}"]
-    for lv in data["levels"]:
-        for m, s in lv["methods"].items():
-            pred = "-" if lv["predicted_rms"] is None else f"{lv['predicted_rms']:.3e}"
-            ratio = "-" if s["ratio_to_predicted"] is None else f"{s['ratio_to_predicted']:.3f}"
-            rate = f"{s['solutions_per_second']:.3g}" if s["solutions_per_second"] else "-"
-            lines.append(f"{lv['name']:16s} {m:9s} {s['rms']:10.3e} {pred:>10s} {ratio:>6s} {s['max']:10.3e} "
-                         f"{s['near_degenerate']:9d} {rate:>11s}")
-    ap = data.get("approach")
-    if ap:
-        lines += ["", f"approach ({ap['level']}): RMS error [rad] against the angle between the two directions",
-                  f"{'angle [deg]':>11s} {'predicted':>10s} " + " ".join(f"{m:>10s}" for m in ap["methods"])]
-        for i, a in enumerate(ap["angles_deg"]):
-            lines.append(f"{a:11g} {ap['predicted_rms'][i]:10.3e} "
-                         + " ".join(f"{v['rms'][i]:10.3e}" for v in ap["methods"].values()))
-    failed = [c for c in data["checks"] if not c["passed"]]
-    lines += ["", f"checks: {len(data['checks']) - len(failed)} of {len(data['checks'])} passed"]
-    lines += [f"  FAILED {c['name']}: {c['text']}" for c in failed]
-    return lines
 
 
 def build_parser() -> argparse.ArgumentParser:

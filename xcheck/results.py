@@ -1,5 +1,6 @@
-"""What a cross-check found, as typed records computed once: a :class:`Run` (one method at one step), a
-:class:`MethodResult` (its runs, observed order, finest good run and verdict) and a :class:`Check` (kind,
+"""What a cross-check found, as typed records computed once: a :class:`Run` (one method at one step),
+:class:`MethodRuns` (a method's runs as a worker measured them), a :class:`MethodResult` (its runs, observed
+order, finest good run and verdict) and a :class:`Check` (kind,
 method, passed, value, limit, note). The JSON of schema ``xcheck.convergence/1`` is made from them at the edge
 (``to_json``), with every key it has always had; ``verdict`` is new.
 
@@ -13,7 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields
 
-__all__ = ["Run", "Check", "MethodResult", "json_number", "VERDICTS"]
+__all__ = ["Run", "MethodRuns", "Check", "MethodResult", "json_number", "VERDICTS"]
 
 VERDICTS = ("pass", "fail", "expected", "info")
 
@@ -71,6 +72,28 @@ class Run:
         if not self.ok or self.message:  # a failure's reason, or a good run's note (an engine's rounded clock)
             out["message"] = self.message
         return out
+
+
+@dataclass
+class MethodRuns:
+    """One method's runs in one scenario as a worker measured them, what :func:`xcheck.study.assemble` takes (a
+    study's worker and a sweep's chunk both make them): the runs (coarse to fine, or loose to tight
+    tolerances), the finest good run sampled for the figures (``series``; None where none is drawn), the direct
+    comparisons with its partner, why nothing could be measured (``reference_error``), and whether a sweep ran
+    it batched."""
+
+    method: str
+    runs: list
+    series: dict | None = None
+    comparisons: list = field(default_factory=list)
+    reference_error: str | None = None
+    batched: bool = False
+
+    @classmethod
+    def without_reference(cls, method: str, settings, reason: str) -> "MethodRuns":
+        """Every run of ``settings`` (``(dt, rtol)`` pairs) failed for want of a reference (``reason``)."""
+        return cls(method, [Run.failed(dt, "failed", f"no reference: {reason}", 0.0, rtol) for dt, rtol in settings],
+                   reference_error=str(reason))
 
 
 @dataclass

@@ -113,13 +113,17 @@ def _basilisk_clock(dt: float) -> str | None:
 
 
 def _basilisk_input_order(torque: dict | None):
-    """The order Basilisk's held inputs leave with a scenario's torque (see :mod:`xcheck.engines.basilisk`)."""
+    """The order Basilisk's held inputs leave with a scenario's torque, and why
+    (:func:`xcheck.engines.basilisk.input_order`, which the run itself reports)."""
+    from .engines.basilisk import MIDPOINT_NOTE, input_order
     from .fields import FIELDS
 
-    if torque is None or torque.get("kind") != "magnetic" or not FIELDS[torque["field"]].time_dependent:
+    kind = None if torque is None else torque.get("kind")
+    order = input_order(kind, FIELDS[torque["field"]] if kind == "magnetic" else None)
+    if order is None:
         return None, None
-    return 2, ("Basilisk reads its inputs once per step: the field is written at each step's midpoint and held "
-               "over the step (a midpoint rule in time), so its order is 2 with this field")
+    return order, (MIDPOINT_NOTE if order == 2 else "Basilisk takes the torque at each step's start and holds it "
+                   "over the step: first order")
 
 
 #: Basilisk's methods: registered when its package (the extra ``basilisk``) is installed.

@@ -41,7 +41,7 @@ from .sensors import (
     predicted_rms,
 )
 
-__all__ = ["run_determination"]
+__all__ = ["run_determination", "summary_lines"]
 
 
 def _stats(err) -> dict:
@@ -54,6 +54,7 @@ def _stats(err) -> dict:
 # --------------------------------------------------------------------------------------------------------
 def _truth_and_field(scenario, spec):
     """MuJoCo's run (t, q) and the field: (B_body from the magnetometer, B_world, source text)."""
+    from ..engines import ENGINES
     from ..runners import RUNNERS
     from ..study.context import run_context
 
@@ -73,11 +74,12 @@ def _truth_and_field(scenario, spec):
         raise det.DeterminationError(f"{scenario.path}: [determination]: the truth run failed: {traj.message}")
     B_world = MU0 * field.strength(traj.t)
     R = quat_to_dcm(traj.q)
-    if field.name == "uniform" and spec.method.startswith("mujoco-"):
-        from ..engines.mujoco import magnetometer_readings
+    engine = ENGINES.get(RUNNERS[spec.method].engine)  # None: ours
+    if engine is not None and engine.magnetometer and field.frame == "world" and not field.time_dependent:
+        import importlib
 
-        B_body = magnetometer_readings(scenario.model, traj.q, B_world[0])
-        source = "MuJoCo's <magnetometer> sensor (uniform field, opt.magnetic = μ0 H) on MuJoCo's states"
+        function, source = engine.magnetometer  # the engine's own sensor reads a field fixed in the world
+        B_body = getattr(importlib.import_module(engine.module), function)(scenario.model, traj.q, B_world[0])
     else:
         B_body = np.einsum("tji,tj->ti", R, B_world)
         source = f"xcheck's field model ({field.describe()}) rotated into the body by the run's attitude"
@@ -187,3 +189,32 @@ def _solve(level, sun_world, B_body, B_world, R, q_true, methods, rng):
         seconds = time.perf_counter() - t0
         solved[m] = (attitude_error(est.q, q_true), int(np.sum(est.near_degenerate)), seconds)
     return first, pred, solved
+
+
+def summary_lines(data: dict) -> list[str]:
+    """A determination study as text (``xcheck determine``): the statistics per noise level and method, the checks, the approach."""
+    tr = data["truth"]
+    lines = [f"attitude determination on {data['scenario']}: truth {tr['method']} every {tr['dt']:g} s "
+             f"({tr['samples']} samples); magnetometer: {data['magnetometer']}",
+             f"sun direction {[round(x, 4) for x in data['sun_direction']]}, {data['angle_deg']['min']:.1f}-"
+             f"{data['angle_deg']['max']:.1f} deg from the field; noise seed {data['seed']}", "",
+             f"{'noise':16s} {'method':9s} {'RMS [rad]':>10s} {'predicted':>10s} {'ratio':>6s} {'max [rad]':>10s} "
+             f"{'near-deg.':>9s} {'solutions/s':>11s}"]
+    for lv in data["levels"]:
+        for m, s in lv["methods"].items():
+            pred = "-" if lv["predicted_rms"] is None else f"{lv['predicted_rms']:.3e}"
+            ratio = "-" if s["ratio_to_predicted"] is None else f"{s['ratio_to_predicted']:.3f}"
+            rate = f"{s['solutions_per_second']:.3g}" if s["solutions_per_second"] else "-"
+            lines.append(f"{lv['name']:16s} {m:9s} {s['rms']:10.3e} {pred:>10s} {ratio:>6s} {s['max']:10.3e} "
+                         f"{s['near_degenerate']:9d} {rate:>11s}")
+    ap = data.get("approach")
+    if ap:
+        lines += ["", f"approach ({ap['level']}): RMS error [rad] against the angle between the two directions",
+                  f"{'angle [deg]':>11s} {'predicted':>10s} " + " ".join(f"{m:>10s}" for m in ap["methods"])]
+        for i, a in enumerate(ap["angles_deg"]):
+            lines.append(f"{a:11g} {ap['predicted_rms'][i]:10.3e} "
+                         + " ".join(f"{v['rms'][i]:10.3e}" for v in ap["methods"].values()))
+    failed = [c for c in data["checks"] if not c["passed"]]
+    lines += ["", f"checks: {len(data['checks']) - len(failed)} of {len(data['checks'])} passed"]
+    lines += [f"  FAILED {c['name']}: {c['text']}" for c in failed]
+    return lines

@@ -2,7 +2,8 @@
 runners in :mod:`xcheck.runners`: the module provides the simulation (``simulate`` -> ``Trajectory``) and may
 provide ``bench_extras(contexts, dt, nsteps, repeat)`` (rows of its own for ``xcheck bench``); the entry names
 the distribution whose version every report records (:func:`xcheck.versions.versions`), the modules a worker
-imports as it starts, and whether a process working beside a pool leaves the engine's runs to the workers."""
+imports as it starts, whether a process working beside a pool leaves the engine's runs to the workers, and the
+engine's own magnetometer where it has one."""
 
 from __future__ import annotations
 
@@ -19,9 +20,15 @@ class Engine:
     #: its import is costly (Basilisk's: 0.5 s a process): a process that works beside a pool leaves its runs
     #: to the workers, which import it as they start, and a study that runs them starts a worker for them
     to_workers: bool = False
+    #: the engine's own magnetometer: ``(function in its module, what it is)``; the function gives the body-frame
+    #: readings ``(model, q (n, 4), B_world (3,))`` of a field fixed in the world (the determination study reads
+    #: it there); None: the engine has none wired here
+    magnetometer: tuple[str, str] | None = None
 
 
-ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco", "mujoco", warm=("xcheck.engines.mujoco",)),
+ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco", "mujoco", warm=("xcheck.engines.mujoco",),
+                            magnetometer=("magnetometer_readings", "MuJoCo's <magnetometer> sensor (uniform field, "
+                                          "opt.magnetic = μ0 H) on MuJoCo's states")),
            "basilisk": Engine("basilisk", "bsk", "xcheck.engines.basilisk", "Basilisk",
                               warm=("xcheck.engines.basilisk", "Basilisk.simulation.spacecraft"), to_workers=True)}
 

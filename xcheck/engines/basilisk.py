@@ -60,7 +60,7 @@ from ..trajectory import (
     tolerances_at,
 )
 
-__all__ = ["simulate", "INTEGRATORS", "to_basilisk", "from_basilisk", "clock_step"]
+__all__ = ["simulate", "INTEGRATORS", "to_basilisk", "from_basilisk", "clock_step", "input_order"]
 
 #: Our names -> Basilisk's integrator classes (``Basilisk.simulation.svIntegrators``), the ones it offers.
 INTEGRATORS = {"rk4": "svIntegratorRK4", "rkf45": "svIntegratorRKF45", "rkf78": "svIntegratorRKF78"}
@@ -253,6 +253,24 @@ def _ext_torque(sc, sim, b):
     return sim.add(ext, EFFECTOR_PRIORITY)
 
 
+#: Why a held input is second order (the note of :func:`input_order`'s 2).
+MIDPOINT_NOTE = ("Basilisk reads its inputs once per step: the field is written at each step's midpoint and held over "
+                 "the step (a midpoint rule in time), so its order is 2 with this field")
+
+
+def input_order(kind: str | None, field=None) -> int | None:
+    """The order the held input of a torque of ``kind`` (None, ``constant``, ``magnetic`` with its ``field``
+    declaration or model, or any other: a Python callable) leaves in Basilisk's runs, None where nothing
+    time-dependent is held: a constant, or a field fixed in time, is exact; a time-dependent field is written at
+    each step's midpoint (2); a callable's torque is taken at each step's start (1). Read both where a study is
+    planned (:mod:`xcheck.runners`, from the scenario's torque) and where the run is built (here)."""
+    if kind in (None, "constant"):
+        return None
+    if kind == "magnetic":
+        return 2 if field.time_dependent else None
+    return 1
+
+
 def _torque_input(torque, sc, sim, b, ns: int, n: int):
     """Connect ``torque`` to the hub (modules added to ``sim``). Returns ``(note, order)``: how it enters, and the
     order its holding leaves (None: nothing held)."""
@@ -270,12 +288,13 @@ def _torque_input(torque, sc, sim, b, ns: int, n: int):
         ext.cmdTorqueInMsg.subscribeTo(message)
         t = _step_midpoints(ns, n)
         _held_rows(sim, message, torque.many(t, np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3)), ns)
-        return "extForceTorque.cmdTorqueInMsg: the torque at each step's midpoint, held over the step", 2
+        return ("extForceTorque.cmdTorqueInMsg: the torque at each step's midpoint, held over the step",
+                input_order("magnetic", torque.field))
 
     def step_input(t, h, sigma, omega):
         ext.extTorquePntB_B = [[float(x)] for x in np.asarray(torque(t, rot.mrp_to_quat(sigma), omega), float)]
     _before_each_step(sim, sc, step_input, ns)
-    return "extForceTorque, set before every step to the torque at the step's start, held", 1
+    return "extForceTorque, set before every step to the torque at the step's start, held", input_order("callable")
 
 
 def _mtb(torque, sc, sim, b, ns: int, n: int):
@@ -310,7 +329,7 @@ def _mtb(torque, sc, sim, b, ns: int, n: int):
         return "MtbEffector (the dipole as three torque rods), the field in magInMsg (fixed in time)", None
     _held_rows(sim, field_msg, MU0 * np.asarray(field.strength(_step_midpoints(ns, n)), dtype=float), ns)
     return ("MtbEffector (the dipole as three torque rods; the attitude of every stage), the field in magInMsg at "
-            "each step's midpoint time, held over the step", 2)
+            "each step's midpoint time, held over the step", input_order("magnetic", field))
 
 
 @functools.lru_cache(maxsize=1)

@@ -16,7 +16,7 @@ from ..runners import RUNNERS  # noqa: E402
 from ..trajectory import step_label  # noqa: E402
 
 __all__ = ["render_figures", "scenario_figures", "new_figure", "save_figure", "subplots", "png_of", "colors_of",
-           "line_style"]
+           "line_style", "run_figure"]
 
 _STYLE = {"figure.dpi": 100, "savefig.dpi": 100, "font.size": 9, "axes.grid": True, "grid.alpha": 0.3,
           "axes.spines.top": False, "axes.spines.right": False, "legend.fontsize": 7}
@@ -166,6 +166,25 @@ def save_figure(fig, path) -> None:
         raise
     finally:
         plt.close(fig)
+
+
+def run_figure(path, title, traj, err) -> None:
+    """Quaternion, body rates and attitude error of one run, in the format of ``path``'s ending."""
+    fig, axes = new_figure(3, 1, figsize=(7.5, 7), sharex=True)
+    for k, c in enumerate("wxyz"):
+        axes[0].plot(traj.t, traj.q[:, k], label=f"q{c}")
+    for k, c in enumerate("xyz"):
+        axes[1].plot(traj.t, traj.omega[:, k], label=f"ω{c}")
+    if np.any(np.isfinite(err)):
+        axes[2].semilogy(traj.t, np.maximum(err, 1e-17))
+    axes[0].legend(ncol=4)
+    axes[1].legend(ncol=3)
+    axes[0].set_ylabel("quaternion")
+    axes[1].set_ylabel("body rate [rad/s]")
+    axes[2].set_ylabel("attitude error [rad]")
+    axes[2].set_xlabel("t [s]")
+    axes[0].set_title(title)
+    save_figure(fig, path)
 
 
 def png_of(fig, file, caption) -> tuple[str, str, bytes]:

@@ -127,8 +127,8 @@ def _axis_column(axis) -> tuple[str, str, bool]:
     if axis.name in SUMMARIES:
         return SUMMARIES[axis.name][0], SUMMARIES[axis.name][1], False
     if axis.name in ("model", "field"):
-        return axis.name, AXES[axis.name][1], True
-    label = AXES[axis.name][1] if axis.name in AXES else f"{axis.name.removeprefix('field.')} (field model)"
+        return axis.name, AXES[axis.name].help, True
+    label = AXES[axis.name].help if axis.name in AXES else f"{axis.name.removeprefix('field.')} (field model)"
     return axis.name, label, False
 
 

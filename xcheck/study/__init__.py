@@ -164,9 +164,9 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
     floor = study_floor(results)
     methods, series = {}, {}
     for res in results:
-        name = res["method"]
+        name = res.method
         runner = RUNNERS[name]
-        runs = res["runs"]
+        runs = res.runs
         x = [r.setting for r in runs]
         fit = observed_order(x, [r.attitude_error for r in runs], floor=floor)
         within = {tolerance_key(tol): largest_step_within(
@@ -180,9 +180,9 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
                                      expected_order=runner.order_for(scenario.torque)[0],
                                      runs=runs, observed_order=order, order_note=note,
                                      local_orders=local, within=within)
-        if res["series"] is not None:
-            series[name] = res["series"]
-    reference_error = next((res["reference_error"] for res in results if res.get("reference_error")), None)
+        if res.series is not None:
+            series[name] = res.series
+    reference_error = next((res.reference_error for res in results if res.reference_error), None)
     if reference_error:
         checks = [Check("reference", False, note=f"the {scenario.reference} reference could not be computed: "
                                                  f"{reference_error}")]
@@ -190,7 +190,7 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
         checks = study_checks(scenario, methods, scenario.checks, quick)
     for m in methods.values():
         m.verdict = verdict(m.name, checks)
-    comparisons = [c for res in results for c in res.get("comparisons", ())]
+    comparisons = [c for res in results for c in res.comparisons]
     return StudyResult(scenario=scenario, steps=list(steps), methods=methods, checks=checks, order_floor=floor,
                        quick=quick, series=series, comparisons=comparisons)
 

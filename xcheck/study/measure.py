@@ -12,7 +12,7 @@ import numpy as np
 from .. import rotations as rot
 from ..metrics import errors_against, invariant_drift
 from ..reference import ReferenceFailure
-from ..results import Run
+from ..results import MethodRuns, Run
 from ..runners import RUNNERS, RunContext
 from ..scenario import Scenario
 from ..trajectory import step_plan
@@ -26,7 +26,7 @@ _PARTNER_RUNS: dict = {}  # (scenario key, partner, dt) -> Trajectory | None (se
 
 
 def run_method(scenario: Scenario, method: str, steps: tuple, partner: str | None = None,
-                tolerances: tuple | None = None, timing: bool = True) -> dict:
+                tolerances: tuple | None = None, timing: bool = True) -> MethodRuns:
     """All steps of one method (in a worker): per-run metrics, the sampled finest good run, and with a
     ``partner`` (:func:`comparison_partner`) the largest attitude difference between the two at every step."""
     import warnings
@@ -34,10 +34,8 @@ def run_method(scenario: Scenario, method: str, steps: tuple, partner: str | Non
     warnings.filterwarnings("ignore", category=UserWarning, module="xcheck.models")
     try:
         return measure_method(scenario, method, steps, partner, tolerances=tolerances, timing=timing)
-    except ReferenceFailure as exc:  # building or evaluating it: nothing can be measured, the study fails with
-        return {"method": method, "runs": [Run.failed(dt, "failed", f"no reference: {exc}", 0.0, rtol)  # the reason
-                                           for dt, rtol in settings(scenario, RUNNERS[method], steps, tolerances)],
-                "series": None, "reference_error": str(exc), "comparisons": []}
+    except ReferenceFailure as exc:  # building or evaluating it: nothing can be measured; the study fails, saying why
+        return MethodRuns.without_reference(method, settings(scenario, RUNNERS[method], steps, tolerances), exc)
 
 
 def settings(scenario: Scenario, runner, steps, tolerances=None) -> list[tuple[float, float | None]]:
@@ -50,7 +48,7 @@ def settings(scenario: Scenario, runner, steps, tolerances=None) -> list[tuple[f
 
 
 def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str | None, sample: bool = True,
-                   tolerances: tuple | None = None, timing: bool = True) -> dict:
+                   tolerances: tuple | None = None, timing: bool = True) -> MethodRuns:
     """One method at every step of a scenario (an adaptive method: at every tolerance of ``tolerances``), run
     one at a time (what :func:`assemble` takes): its runs, with a ``partner`` the direct comparisons, and with
     ``sample`` the finest good run sampled for the figures (a sweep, which draws none, skips it)."""
@@ -79,7 +77,7 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
             if difference is not None:
                 comparisons.append({"a": method, "b": partner, "dt": dt, "max_attitude_difference": difference})
     series = _sample(finest, ref, ctx) if finest is not None and sample else None
-    return {"method": method, "runs": runs, "series": series, "comparisons": comparisons}
+    return MethodRuns(method, runs, series=series, comparisons=comparisons)
 
 
 #: A run shorter than this [s] is repeated (up to :data:`TIMING_REPEATS` runs in all) until this much time is

@@ -249,7 +249,7 @@ def _run_batched(method: str, cells: list[_Cell], steps: tuple) -> None:
     """One integrate_batch call per step for all ``cells`` (same model, torque, duration); each run's wall
     time is the call's divided by the number of cells."""
     from ..integrators import METHODS, integrate_batch
-    from ..results import Run
+    from ..results import MethodRuns, Run
     from ..study.measure import measure_run
     from ..trajectory import Trajectory
 
@@ -286,25 +286,24 @@ def _run_batched(method: str, cells: list[_Cell], steps: tuple) -> None:
             runs[i].append(measure_run(method, traj, c.ref, c.ctx, dt, wall))
             c.timings["compute"] += wall + (time.perf_counter() - t1)
     for c, r in zip(cells, runs):
-        c.results.append({"method": method, "runs": r, "series": None, "comparisons": [], "batched": True})
+        c.results.append(MethodRuns(method, r, batched=True))
 
 
 def _record(c: _Cell, methods: list[str], steps: tuple) -> dict:
     """A cell's record: its parameters, every method's result (schema ``xcheck.convergence/1``'s method
     entries), the checks, whether it passed, and where its time went."""
-    from ..results import Run
+    from ..results import MethodRuns
     from ..study import assemble
     from ..study.measure import settings
 
     if c.failure is not None:
-        c.results = [{"method": m, "runs": [Run.failed(dt, "failed", f"no reference: {c.failure}", 0.0, rtol)
-                                            for dt, rtol in settings(c.scenario, RUNNERS[m], steps,
-                                                                     c.scenario.quick_tolerances)],
-                      "series": None, "reference_error": c.failure} for m in methods]
+        c.results = [MethodRuns.without_reference(m, settings(c.scenario, RUNNERS[m], steps,
+                                                              c.scenario.quick_tolerances), c.failure)
+                     for m in methods]
     st = assemble(c.scenario, list(steps), c.results, quick=True)
     return {"id": c.id, "params": c.params, "passed": st.passed, "order_floor": st.order_floor,
             "methods": {n: m.to_json() for n, m in st.methods.items()},
-            "batched": sorted(r["method"] for r in c.results if r.get("batched")),
+            "batched": sorted(r.method for r in c.results if r.batched),
             "checks": [ch.to_json() for ch in st.checks],
             "timings": {k: round(v, 6) for k, v in c.timings.items()}}
 

@@ -44,6 +44,7 @@ import zlib
 from dataclasses import dataclass, field
 from itertools import product
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -54,8 +55,8 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-__all__ = ["MAX_CELLS", "SweepError", "SweepSpec", "Axis", "load_sweep", "resolve_sweep", "bundled_sweeps", "apply_cell", "flat_params", "AXES", "random_quaternions",
-           "random_directions"]
+__all__ = ["MAX_CELLS", "SweepError", "SweepSpec", "Axis", "AxisKind", "AXES", "load_sweep", "resolve_sweep",
+           "bundled_sweeps", "apply_cell", "flat_params", "random_quaternions", "random_directions"]
 
 
 class SweepError(ScenarioError):
@@ -64,19 +65,67 @@ class SweepError(ScenarioError):
 
 #: axis name -> (kind of one value, what it varies). Kinds: number, positive, vector3, positive3, quaternion,
 #: path, string, strings.
+@dataclass(frozen=True)
+class AxisKind:
+    """A sweep axis as declared: the kind of its values (how the spec is read and checked), its help text, and
+    how a cell's value changes the base scenario (``apply(scenario, value, body)``, ``body()`` the cell's model
+    loaded on demand; None: the value is not the scenario's, ``dt`` is the run's)."""
+
+    kind: str
+    help: str
+    apply: Callable | None = None
+
+
+def _set(attr: str, convert):
+    def apply(sc, value, body):
+        setattr(sc, attr, convert(value))
+    return apply
+
+
+def _inertia_scale(sc, value, body):
+    moments = sc.inertia if sc.inertia is not None else body().model_moments
+    sc.inertia = tuple(value * m for m in moments)
+
+
+def _dipole(sc, value, body):
+    sc.torque["dipole"] = list(value)
+
+
+def _dipole_scale(sc, value, body):
+    sc.torque["dipole"] = [value * float(m) for m in sc.torque.get("dipole", body().dipole)]
+
+
+def _field(sc, value, body):
+    from ..fields import FIELDS
+
+    keys = FIELDS[value].keys
+    sc.torque = {k: v for k, v in sc.torque.items() if k in ("kind", "dipole") or k in keys}
+    sc.torque["field"] = value
+
+
+def _rate_direction(sc, value, body):
+    d = np.asarray(value, dtype=float)
+    sc.omega0 = np.linalg.norm(sc.omega0) * d / np.linalg.norm(d)
+
+
+#: Every axis a spec may have, in the order a cell applies them: the model first (its inertia and dipole are what
+#: the scales scale), then inertia, dipole, field (then the field's own keys, ``field.<key>``), attitude, rate.
 AXES = {
-    "model": ("path", "the MJCF model (swap the body)"),
-    "inertia_scale": ("positive", "the body's inertia times a factor"),
-    "inertia": ("positive3", "the body's principal moments of inertia [kg m^2]"),
-    "dipole": ("vector3", "the magnetic dipole [A m^2]"),
-    "dipole_scale": ("positive", "the dipole times a factor"),
-    "attitude": ("quaternion", "the initial attitude [w, x, y, z], body -> world"),
-    "rate": ("vector3", "the initial body rate [rad/s]"),
-    "rate_deg": ("vector3", "the initial body rate [deg/s]"),
-    "rate_scale": ("positive", "the initial body rate times a factor"),
-    "rate_direction": ("vector3", "the initial body rate's direction (its magnitude kept)"),
-    "field": ("string", "the field model"),
-    "dt": ("positive", "the steps every cell runs [s]"),
+    "model": AxisKind("path", "the MJCF model (swap the body)", _set("model", Path)),
+    "inertia": AxisKind("positive3", "the body's principal moments of inertia [kg m^2]", _set("inertia", tuple)),
+    "inertia_scale": AxisKind("positive", "the body's inertia times a factor", _inertia_scale),
+    "dipole": AxisKind("vector3", "the magnetic dipole [A m^2]", _dipole),
+    "dipole_scale": AxisKind("positive", "the dipole times a factor", _dipole_scale),
+    "field": AxisKind("string", "the field model", _field),
+    "attitude": AxisKind("quaternion", "the initial attitude [w, x, y, z], body -> world",
+                         _set("q0", lambda v: np.asarray(v, dtype=float) / np.linalg.norm(v))),
+    "rate": AxisKind("vector3", "the initial body rate [rad/s]", _set("omega0", lambda v: np.asarray(v, dtype=float))),
+    "rate_deg": AxisKind("vector3", "the initial body rate [deg/s]",
+                         _set("omega0", lambda v: np.radians(np.asarray(v, dtype=float)))),
+    "rate_scale": AxisKind("positive", "the initial body rate times a factor",
+                           lambda sc, v, body: setattr(sc, "omega0", v * sc.omega0)),
+    "rate_direction": AxisKind("vector3", "the initial body rate's direction (its magnitude kept)", _rate_direction),
+    "dt": AxisKind("positive", "the steps every cell runs [s]"),
 }
 RANDOM = {"attitude": "so3", "rate_direction": "sphere"}
 _AXIS_KEYS = ("values", "range", "num", "spacing", "distribution", "mean", "std", "random", "count")
@@ -387,47 +436,23 @@ def _cell(params: dict) -> dict:
 
 def apply_cell(base: Scenario, params: dict) -> Scenario:
     """The scenario of one cell: ``base`` with the cell's parameters in place (a new :class:`Scenario`; the
-    base is not changed). The order is fixed: the model first (its inertia and dipole are what the scales
-    scale), then inertia, dipole, field, attitude and rate."""
+    base is not changed), each axis by its declaration (:data:`AXES`), in their order; a field's own keys
+    (``field.<key>``) after the field model, where the cell's model has that key."""
     import dataclasses
+    from functools import lru_cache
 
     from ..fields import FIELDS
     from ..models import load_body
 
     sc = dataclasses.replace(base, torque=dict(base.torque) if base.torque else None)
-    if "model" in params:
-        sc.model = Path(params["model"])
-    body = load_body(sc.model) if ("inertia_scale" in params or "dipole_scale" in params) else None
-    if "inertia" in params:
-        sc.inertia = tuple(params["inertia"])
-    if "inertia_scale" in params:
-        moments = sc.inertia if sc.inertia is not None else body.model_moments
-        sc.inertia = tuple(params["inertia_scale"] * m for m in moments)
-    if "dipole" in params:
-        sc.torque["dipole"] = list(params["dipole"])
-    if "dipole_scale" in params:
-        dipole = sc.torque.get("dipole", body.dipole)
-        sc.torque["dipole"] = [params["dipole_scale"] * float(m) for m in dipole]
-    if "field" in params:
-        keys = FIELDS[params["field"]].keys
-        sc.torque = {k: v for k, v in sc.torque.items() if k in ("kind", "dipole") or k in keys}
-        sc.torque["field"] = params["field"]
-    for name, value in params.items():
-        if name.startswith("field."):
-            key = name.removeprefix("field.")
-            if key in FIELDS[sc.torque["field"]].keys:  # a key the cell's field model has
-                sc.torque[key] = value
-    if "attitude" in params:
-        sc.q0 = np.asarray(params["attitude"], dtype=float) / np.linalg.norm(params["attitude"])
-    if "rate" in params:
-        sc.omega0 = np.asarray(params["rate"], dtype=float)
-    if "rate_deg" in params:
-        sc.omega0 = np.radians(np.asarray(params["rate_deg"], dtype=float))
-    if "rate_scale" in params:
-        sc.omega0 = params["rate_scale"] * sc.omega0
-    if "rate_direction" in params:
-        d = np.asarray(params["rate_direction"], dtype=float)
-        sc.omega0 = np.linalg.norm(sc.omega0) * d / np.linalg.norm(d)
+    body = lru_cache(maxsize=1)(lambda: load_body(sc.model))  # the cell's model (after a model axis)
+    for name, axis in AXES.items():
+        if name in params and axis.apply is not None:
+            axis.apply(sc, params[name], body)
+        if name == "field":
+            for key, value in ((k.removeprefix("field."), v) for k, v in params.items() if k.startswith("field.")):
+                if key in FIELDS[sc.torque["field"]].keys:  # a key the cell's field model has
+                    sc.torque[key] = value
     return sc
 
 
@@ -450,7 +475,7 @@ def _read_axis(path: Path, name: str, table, base: Scenario, combine: str) -> Ax
                    f"{', '.join(declared) or 'none'})")
         kind = declared[key].kind  # the axis kinds include the field keys' kinds
     elif name in AXES:
-        kind = AXES[name][0]
+        kind = AXES[name].kind
         if name in MAGNETIC_AXES and (base.torque is None or base.torque.get("kind") != "magnetic"):
             refuse(f"the base scenario {base.name} has no magnetic torque: nothing for {name!r} to vary")
     else:
