@@ -11,8 +11,8 @@ import xcheck
 
 PACKAGE = Path(xcheck.__file__).resolve().parent
 #: The core: mathematics, integrators, references, metrics, fields (docs/architecture.md).
-CORE = ["rotations", "seeds", "body", "trajectory", "fields", "integrators", "reference", "metrics", "versions",
-        "_jit", "determination.methods", "determination.seed002", "determination.sensors"]
+CORE = ["rotations", "seeds", "body", "trajectory", "fields", "integrators", "reference", "metrics",
+        "_jit", "paths", "results", "determination.methods", "determination.seed002"]
 
 
 def module_name(path: Path) -> str:
@@ -170,3 +170,23 @@ def test_reading_a_scenario_and_collecting_its_items_import_no_mujoco(tmp_path):
     proc = subprocess.run([sys.executable, "-c", COLLECT_WITHOUT_MUJOCO], capture_output=True, text=True, timeout=120,
                           cwd=PACKAGE.parent)
     assert proc.stdout.split()[-4:] == ["False", "False", "False", "0"], proc.stdout[-2000:] + proc.stderr[-2000:]
+
+
+def _in(room: str, rooms) -> bool:
+    return any(room == r or room.startswith(r + ".") for r in rooms)
+
+
+def test_the_core_imports_only_the_core():
+    """No arrow runs against the layers: a core module imports only core modules of xcheck (the engines, the
+    study, the report and the command line sit above it). ``versions`` reads the engines' records, so it sits above
+    the core, beside the scenario and the runners."""
+    edges, _ = graph()
+    upward = {(m, n) for m, targets in edges.items() if _in(m, CORE) for n in targets if n and not _in(n, CORE)}
+    assert not upward, sorted(upward)
+
+
+def test_the_layer_check_sees_an_upward_arrow():
+    """The check above can fail: a core module importing the study is found."""
+    edges = {"rotations": ["study"], "study": ["rotations"]}
+    upward = {(m, n) for m, targets in edges.items() if _in(m, CORE) for n in targets if n and not _in(n, CORE)}
+    assert upward == {("rotations", "study")}
