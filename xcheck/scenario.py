@@ -111,7 +111,7 @@ class Scenario:
     #: principal moments [kg m^2] replacing the model's, along its principal axes in MuJoCo's order
     #: (``body_inertia``); None: the model's own. Set by a sweep's inertia axes (:mod:`xcheck.sweep.spec`).
     inertia: tuple | None = None
-    #: the [determination] table (:class:`xcheck.determination.study.DeterminationSpec`); None: the scenario has none
+    #: the [determination] table (:class:`xcheck.determination.sensors.DeterminationSpec`); None: the scenario has none
     determination: object = None
 
 

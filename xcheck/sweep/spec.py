@@ -415,7 +415,7 @@ _COMPONENTS = {"attitude": ("w", "x", "y", "z"), "inertia": ("1", "2", "3")}
 
 def flat_params(params: dict) -> dict:
     """A cell's parameters as scalar columns: a vector axis gives one column per component (``rate_x``,
-    ``attitude_w``, ``inertia_1``) and a summary (:func:`xcheck.sweep.axis_summary`), a model its file name."""
+    ``attitude_w``, ``inertia_1``) and a summary (:func:`xcheck.sweep.spec.axis_summary`), a model its file name."""
     out = {}
     for name, value in params.items():
         if isinstance(value, list):
