@@ -216,3 +216,15 @@ def test_two_files_of_one_scenario_name_are_refused_for_a_report(pytester):
     result.assert_outcomes(failed=1)
     out = result.stdout.str()
     assert f"the scenario name 'gyroscope-nonsingular' is also {first}'s" in out and str(second) in out, out
+
+
+def test_a_model_alone_is_collected_as_a_scenario(pytester):
+    """Issue 26: an ``xcheck_*.xml`` MJCF file is collected with the scenario ``xcheck init`` would write for it
+    (its first keyframe's state, torque free, the exact reference): items ``<file>::<method>::<check>``."""
+    keyframe = '<keyframe><key name="spin" qpos="0 0 0 1 0 0 0" qvel="0 0 0 0.1 0.5 1.0"/></keyframe></mujoco>'
+    text = (BUNDLED_MODELS / "tumbler.xml").read_text().replace("</mujoco>", keyframe)
+    (pytester.path / "xcheck_sat.xml").write_text(text)
+    result = _run(pytester, "-v", "-k", "lie-rkmk4")
+    result.assert_outcomes(passed=2)  # quick: runs and order
+    out = result.stdout.str()
+    assert "xcheck_sat.xml::lie-rkmk4::order PASSED" in out and "xcheck_sat.xml::lie-rkmk4::runs PASSED" in out

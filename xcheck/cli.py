@@ -427,6 +427,33 @@ def _cmd_sweep(args) -> int:
     return EXIT_OK if passed == n else EXIT_CHECK_FAILED
 
 
+def _cmd_init(args) -> int:
+    """The scenario file an MJCF file stands for, every key present and commented, to edit."""
+    import os as _os
+
+    from .report.io import check_output_file, write_text_atomic
+    from .scenario import is_model_arg, model_scenario_text, split_model_arg
+
+    if not is_model_arg(args.model):
+        raise UsageError(f"MODEL: expected an MJCF file (.xml, optionally #KEYFRAME), got {args.model!r}")
+    path, keyframe = split_model_arg(args.model)
+    keyframe = args.keyframe if args.keyframe is not None else keyframe
+    if not path.is_file():
+        raise UsageError(f"MODEL: {path}: no such MJCF file")
+    out = Path(args.out) if args.out else Path(f"xcheck_{path.stem}.toml")
+    check_output_file(out, "--out", suffixes=(".toml",))
+    if out.exists() and not args.force:
+        raise UsageError(f"--out: {out} exists; give another --out, or --force to replace it")
+    relative = _os.path.relpath(path.resolve(), out.resolve().parent)
+    text, assumptions = model_scenario_text(path, keyframe, model_ref=Path(relative).as_posix())
+    write_text_atomic(out, text)
+    _WRITTEN.append(out)
+    print(f"wrote {out}: the scenario xcheck assumes for {path.name}; edit it, then: xcheck report {out}")
+    for a in assumptions:
+        print(f"  - {a}")
+    return EXIT_OK
+
+
 def _cmd_determine(args) -> int:
     """Seed 002's tables reproduced (``--seed002``), or a scenario's attitude-determination study alone."""
     from .report.io import check_output_dir, check_output_file
@@ -476,7 +503,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_list)
 
     p = sub.add_parser("converge", help="one convergence study")
-    p.add_argument("scenario", help="a bundled scenario name or a scenario .toml file")
+    p.add_argument("scenario", help="a bundled scenario name, a scenario .toml file, or an MJCF model alone "
+                                    "(MODEL.xml, MODEL.xml#KEYFRAME)")
     p.add_argument("--methods", help="comma-separated methods (default: the scenario's, or all)")
     p.add_argument("--steps", help="comma-separated steps in seconds (default: the scenario's)")
     p.add_argument("--quick", action="store_true", help="the scenario's quick steps")
@@ -488,7 +516,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_converge)
 
     p = sub.add_parser("run", help="one trajectory")
-    p.add_argument("scenario")
+    p.add_argument("scenario", help="a bundled scenario name, a scenario .toml file, or an MJCF model alone "
+                                    "(MODEL.xml, MODEL.xml#KEYFRAME)")
     p.add_argument("--method", required=True)
     p.add_argument("--dt", type=float, required=True, help="step [s] (an adaptive method's output step)")
     p.add_argument("--rtol", type=float, help="an adaptive method's relative tolerance (default: its own)")
@@ -497,7 +526,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("report", help="the full cross-check report (the main job)")
-    p.add_argument("scenarios", nargs="*", help="bundled names or .toml files (default: every bundled scenario)")
+    p.add_argument("scenarios", nargs="*", help="bundled names, .toml scenario files or MJCF models (MODEL.xml, "
+                                                "MODEL.xml#KEYFRAME; default: every bundled scenario)")
     p.add_argument("--out", default="reports", metavar="DIR", help="where reports go (default: ./reports)")
     p.add_argument("--quick", action="store_true", help="fewer steps, for a fast look")
     p.add_argument("--bench", action="store_true", help="also run the benchmark into the appendix")
@@ -508,7 +538,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_report)
 
     p = sub.add_parser("nightly", help="the full report, compared with the history and recorded in it")
-    p.add_argument("scenarios", nargs="*", help="bundled names or .toml files (default: every bundled scenario)")
+    p.add_argument("scenarios", nargs="*", help="bundled names, .toml scenario files or MJCF models (MODEL.xml, "
+                                                "MODEL.xml#KEYFRAME; default: every bundled scenario)")
     p.add_argument("--out", default="reports", metavar="DIR", help="where reports go (default: ./reports)")
     p.add_argument("--history", metavar="PATH|URL",
                    help="the history: a SQLite file (default: OUT/history.sqlite) or a postgresql:// URL")
@@ -546,6 +577,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="with --executor dask: the scheduler (tcp://host:8786); default a LocalCluster of --jobs")
     p.set_defaults(func=_cmd_sweep)
+
+    p = sub.add_parser("init", help="write the scenario file an MJCF model stands for (every key, commented)")
+    p.add_argument("model", metavar="MODEL", help="an MJCF file (MODEL.xml, or MODEL.xml#KEYFRAME)")
+    p.add_argument("--keyframe", metavar="NAME", help="the keyframe that holds the initial state (default: the "
+                                                        "model's first; none: its own pose and a default rate)")
+    p.add_argument("--out", metavar="FILE", help="the scenario file to write (default: ./xcheck_<model>.toml, "
+                                                  "which pytest collects through xcheck's plugin)")
+    p.add_argument("--force", action="store_true", help="replace --out if it exists")
+    p.set_defaults(func=_cmd_init)
 
     p = sub.add_parser("determine", help="static attitude determination: seed 002's tables, or a scenario's "
                                          "magnetometer + sun sensor study on its MuJoCo run")

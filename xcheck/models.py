@@ -18,7 +18,8 @@ import numpy as np
 from . import rotations as rot
 from .body import RigidBody
 
-__all__ = ["ModelError", "MJCFBody", "load_body", "load_mujoco", "DIPOLE_NUMERIC"]
+__all__ = ["ModelError", "MJCFBody", "load_body", "load_mujoco", "initial_state", "InitialState", "DEFAULT_RATE",
+           "DIPOLE_NUMERIC"]
 
 #: The name of the ``<custom><numeric>`` that holds the permanent dipole [A m^2].
 DIPOLE_NUMERIC = "xcheck_dipole"
@@ -86,6 +87,62 @@ def load_mujoco(path) -> tuple[mujoco.MjModel, MJCFBody]:
 
 
 _LOADED: dict = {}
+
+
+@dataclass(frozen=True)
+class InitialState:
+    """The rotational initial state an MJCF file holds: ``q0`` (body -> world) and ``omega0`` [rad/s] (body
+    frame; the quaternion as the model holds it, normalised where the scenario is read), where they came from
+    (``source``), the keyframe's name (None: the model's own pose), the names of
+    every keyframe it has, and what xcheck leaves out (``notes``: a translation, other joints' values)."""
+
+    q0: np.ndarray
+    omega0: np.ndarray
+    source: str
+    keyframe: str | None
+    keyframes: tuple
+    notes: tuple = ()
+
+
+#: The body rate [rad/s], body frame, of a model that has no keyframe: about every axis, the largest about the
+#: third, so that a torque-free study exercises the full Euler equations (stated in the report).
+DEFAULT_RATE = (0.1, 0.5, 1.0)
+
+
+def initial_state(path, keyframe: str | None = None) -> InitialState:
+    """The initial state of the free body of an MJCF file: its keyframe ``keyframe`` (by name), else its first
+    keyframe, else the model's own pose (``qpos0``, the body's ``pos``/``quat`` in the MJCF) at
+    :data:`DEFAULT_RATE`. A free joint's ``qpos`` holds the quaternion [w, x, y, z] body -> world at 3..6 and its
+    ``qvel`` the body-frame angular velocity at 3..5 (what :mod:`xcheck.engines.mujoco` writes and reads).
+    :class:`ModelError` naming the file for a keyframe it does not have, or one whose quaternion is zero."""
+    model, body = load_mujoco(path)
+    where = str(path)
+    names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, k) or f"#{k}" for k in range(model.nkey))
+    qa, da = body.qpos_adr, body.dof_adr
+    if keyframe is not None and keyframe not in names:
+        have = f"its keyframes: {', '.join(names)}" if names else "it has no <keyframe>"
+        raise ModelError(f"{where}: no keyframe named {keyframe!r} ({have})")
+    if not names:
+        q0 = np.asarray(model.qpos0[qa + 3:qa + 7], dtype=float)
+        return InitialState(q0, np.asarray(DEFAULT_RATE, dtype=float),
+                            f"no <keyframe>: the body's pose in the MJCF and the default body rate "
+                            f"{list(DEFAULT_RATE)} rad/s (body frame)", None, names)
+    k = names.index(keyframe) if keyframe is not None else 0
+    qpos, qvel = model.key_qpos[k], model.key_qvel[k]
+    q0 = np.asarray(qpos[qa + 3:qa + 7], dtype=float)
+    if not np.all(np.isfinite(q0)) or np.linalg.norm(q0) == 0:
+        raise ModelError(f"{where}: keyframe {names[k]!r}: the free joint's quaternion {q0.tolist()} cannot be "
+                         "normalised")
+    omega0 = np.asarray(qvel[da + 3:da + 6], dtype=float)
+    notes = []
+    if np.any(qvel[da:da + 3] != 0):
+        notes.append(f"the keyframe's translational velocity {qvel[da:da + 3].tolist()} m/s is left out: xcheck "
+                     "checks the attitude (the free body's translation does not change it)")
+    if not np.any(omega0):
+        notes.append("the keyframe's body rate is zero: the body does not turn, and every method is exact")
+    which = f"keyframe {names[k]!r}" + (" (the first of the model's)" if keyframe is None and len(names) > 1 else "")
+    return InitialState(q0, omega0, f"the {which}: qpos and qvel of the free joint", names[k],
+                        names, tuple(notes))
 
 
 def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:

@@ -1,6 +1,7 @@
 """xcheck inside other people's pytest suites (issue 13): scenario files as tests.
 
 Installed with xcheck (entry point ``pytest11``) and inactive until a file matches: every ``xcheck_*.toml``
+and every ``xcheck_*.xml`` (an MJCF model alone: the scenario ``xcheck init`` would write for it)
 (ini option ``xcheck_files``: file-name patterns, or patterns of paths relative to the root directory such as
 ``models/scenarios/*.toml``) is a scenario file, collected as ``<file>::<method>::<check>`` test items (each
 check the study makes: ``runs``, ``order``, ``final-error``, ``invariants``, ``agreement``,
@@ -31,7 +32,7 @@ def pytest_addoption(parser):
                     help="run the scenario files' quick steps (a fast look)")
     group.addoption("--xcheck-report", metavar="DIR", default=None,
                     help="write the cross-check report of the scenario files run into DIR")
-    parser.addini("xcheck_files", type="args", default=["xcheck_*.toml"],
+    parser.addini("xcheck_files", type="args", default=["xcheck_*.toml", "xcheck_*.xml"],
                   help="scenario files collected as tests: file-name or root-relative path patterns")
     parser.addini("xcheck_quick", type="bool", default=False, help="like --xcheck-quick")
 
@@ -55,7 +56,7 @@ def _quick(config) -> bool:
 
 
 def pytest_collect_file(file_path: Path, parent):
-    if file_path.suffix != ".toml":
+    if file_path.suffix not in (".toml", ".xml"):  # a scenario file, or an MJCF model alone
         return None
     patterns = parent.config.getini("xcheck_files")
     try:
@@ -82,7 +83,12 @@ class ScenarioFile(pytest.File):
 
         warnings.filterwarnings("ignore", category=UserWarning, module=r"xcheck\.models")
         try:
-            self.scenario = load_scenario(self.path, check_model=False)  # MuJoCo loads when the study runs
+            if self.path.suffix.lower() == ".xml":  # a model alone: its keyframe is MuJoCo's to read
+                from .scenario import scenario_from_model
+
+                self.scenario = scenario_from_model(self.path)
+            else:
+                self.scenario = load_scenario(self.path, check_model=False)  # MuJoCo loads when the study runs
         except ScenarioError as exc:
             yield BrokenScenario.from_parent(self, name="scenario", message=str(exc))
             return

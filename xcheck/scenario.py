@@ -7,6 +7,7 @@ The format is documented in the README ("Scenario files").
 
 from __future__ import annotations
 
+import json
 import math
 import re
 import sys
@@ -24,7 +25,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["Scenario", "ScenarioError", "load_scenario", "check_scenario_model", "bundled_scenarios",
+__all__ = ["Scenario", "ScenarioError", "load_scenario", "check_scenario_model", "scenario_from_model",
+           "model_scenario_text", "is_model_arg", "bundled_scenarios",
            "resolve_scenario", "check_name", "check_steps", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
            "SCENARIO_DIR"]
 
@@ -113,6 +115,9 @@ class Scenario:
     inertia: tuple | None = None
     #: the [determination] table (:class:`xcheck.determination.sensors.DeterminationSpec`); None: the scenario has none
     determination: object = None
+    #: what xcheck assumed to make the scenario (one from an MJCF file alone: its initial state's source, the
+    #: duration, the torque, the reference, the Euler sequence); the report states them. () for a scenario file
+    assumptions: tuple = ()
 
 
 def _tolerances(st, key, default) -> tuple:
@@ -226,6 +231,9 @@ def load_scenario(path, *, check_model: bool = True) -> Scenario:
     load the model and build the torque (:func:`check_scenario_model`, which imports MuJoCo); the pytest plugin
     collects without it, and checks as the study starts."""
     path = Path(path)
+    if is_model_arg(path):
+        raise ScenarioError(f"{path}: an MJCF file, not a scenario file: pass it where a scenario goes (xcheck "
+                            "report MODEL.xml), or write its scenario file with xcheck init MODEL.xml")
     try:
         raw = path.read_bytes()
     except OSError as exc:
@@ -235,6 +243,11 @@ def load_scenario(path, *, check_model: bool = True) -> Scenario:
     except UnicodeDecodeError as exc:
         raise ScenarioError(f"{path}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); a "
                             "scenario is a TOML file, which is UTF-8") from None
+    return _parse_scenario(text, path, check_model=check_model)
+
+
+def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scenario:
+    """A scenario from its TOML ``text``, as if read from ``path`` (relative paths are relative to its folder)."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -443,11 +456,155 @@ def bundled_scenarios() -> dict[str, Path]:
 
 
 def resolve_scenario(name_or_path) -> Scenario:
-    """A bundled scenario by name, or a scenario file by path."""
+    """A bundled scenario by name, a scenario file by path, or an MJCF file alone (``MODEL.xml``, or
+    ``MODEL.xml#KEYFRAME``: :func:`scenario_from_model`)."""
     bundled = bundled_scenarios()
     if str(name_or_path) in bundled:
         return load_scenario(bundled[str(name_or_path)])
+    if is_model_arg(name_or_path):
+        return scenario_from_model(name_or_path)
     path = Path(name_or_path)
     if path.suffix == ".toml" or path.exists():
         return load_scenario(path)
-    raise ScenarioError(f"{name_or_path}: not a bundled scenario ({', '.join(bundled)}) nor a .toml file")
+    raise ScenarioError(f"{name_or_path}: not a bundled scenario ({', '.join(bundled)}), a .toml scenario file nor "
+                        "an MJCF .xml file")
+
+
+# ------------------------------------------------------------------------------------------------------
+# a scenario from an MJCF file alone (xcheck report MODEL.xml, xcheck init)
+# ------------------------------------------------------------------------------------------------------
+#: The duration [s] of a scenario made from an MJCF file alone (the bundled scenarios' own).
+MODEL_DURATION = 10.0
+#: An Euler sequence closer to its singularity than this [deg] over the run makes ``euler-rk4`` a method the
+#: scenario expects to fail (it stops there: the seeds' point about Euler angles, not the model's fault).
+EULER_MARGIN_DEG = 10.0
+
+
+def split_model_arg(text: str) -> tuple[Path, str | None]:
+    """``MODEL.xml`` or ``MODEL.xml#KEYFRAME`` -> (path, keyframe name or None)."""
+    path, sep, key = str(text).partition("#")
+    return Path(path), (key if sep else None)
+
+
+def is_model_arg(text) -> bool:
+    """Whether a scenario argument names an MJCF file (``.xml``, optionally ``#keyframe``)."""
+    return split_model_arg(str(text))[0].suffix.lower() == ".xml"
+
+
+def _toml_list(values) -> str:
+    return "[" + ", ".join(repr(float(v)) for v in values) + "]"
+
+
+def _euler_margins(inertia, q0, omega0, duration: float) -> dict:
+    """Per Euler sequence, the smallest distance [deg] of its middle angle from the singularity over the
+    torque-free motion (the exact solution on 401 times)."""
+    from .reference import exact_torque_free
+
+    t = np.linspace(0.0, duration, 401)
+    q, _ = exact_torque_free(inertia, q0, omega0, t)
+    out = {}
+    for seq in rot.EULER_SEQUENCES:
+        middle = rot.quat_to_euler(q, seq, warn=False)[:, 1]
+        margin = np.minimum(middle, np.pi - middle) if seq[0] == seq[2] else np.pi / 2 - np.abs(middle)
+        out[seq] = float(np.degrees(margin.min()))
+    return out
+
+
+def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | None = None) -> tuple[str, tuple]:
+    """The scenario file that the defaults for an MJCF file stand for, every key present and commented (what
+    ``xcheck init`` writes and what ``xcheck report MODEL.xml`` runs), and the assumptions it makes, in words
+    (the report states them). ``model_ref``: the model as the file names it (relative to where it is written;
+    default: the path as given). :class:`ScenarioError` naming the file for a model xcheck cannot check (its
+    refusal) or a keyframe it does not have."""
+    from .models import ModelError, initial_state, load_body
+    from .reference import ReferenceFailure
+
+    model = Path(model)
+    try:
+        state = initial_state(model, keyframe)
+        body = load_body(model)
+    except ModelError as exc:
+        raise ScenarioError(str(exc)) from None
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "-", model.stem).strip("-.") or "model"
+    if not name[0].isalnum():
+        name = "model-" + name
+    name = (name + (f"-{state.keyframe}" if keyframe is not None else ""))[:100]
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "-", name)
+    assumptions = [f"initial state: {state.source}", *state.notes,
+                   f"duration {MODEL_DURATION:g} s (the default); torque free (the model declares no torque)",
+                   "reference: the exact torque-free solution (closed form)"]
+    expected_to_fail, sequence = [], "323"
+    try:
+        margins = _euler_margins(body.inertia, state.q0, state.omega0, MODEL_DURATION)
+    except (ReferenceFailure, ValueError) as exc:
+        assumptions.append(f"euler-rk4's sequence: 323, unchecked ({exc})")
+    else:
+        sequence = max(rot.EULER_SEQUENCES, key=lambda s: (margins[s], s == "323"))
+        if margins[sequence] < EULER_MARGIN_DEG:
+            expected_to_fail = ["euler-rk4"]
+            assumptions.append(f"euler-rk4 is expected to fail: every Euler sequence comes within "
+                               f"{margins[sequence]:.1f} deg of its singularity in this motion (323 is kept)")
+            sequence = "323"
+        else:
+            assumptions.append(f"euler-rk4's sequence: {sequence}, the one farthest from its singularity over the "
+                               f"run ({margins[sequence]:.1f} deg)")
+    steps = [v for v in DEFAULT_STEPS if v <= MODEL_DURATION]
+    quick = [v for v in QUICK_STEPS if v <= MODEL_DURATION]
+    ref = model_ref if model_ref is not None else str(model)
+    fail_list = "[" + ", ".join(f'"{m}"' for m in expected_to_fail) + "]"
+    lines = [
+        f"# A scenario of {model.name}, as xcheck assumes it when given the model alone (xcheck init): every key of a",
+        "# scenario file, with its value for this model. Edit what you know better; xcheck report THIS_FILE runs it.",
+        *(f"#   - {a}" for a in assumptions),
+        f"name = {json.dumps(name)}",
+        f"description = {json.dumps(f'{model.name}, ' + state.source.split(':')[0] + ', torque free')}",
+        f"model = {json.dumps(ref)}   # the MJCF file (relative to this file)",
+        f"duration = {MODEL_DURATION!r}   # [s]",
+        "",
+        "[initial]",
+        f"# {state.source}",
+        f"quaternion = {_toml_list(state.q0)}   # [w, x, y, z], body -> world",
+        f"angular_velocity = {_toml_list(state.omega0)}   # [rad/s], body frame",
+        f"euler_sequence = {json.dumps(sequence)}   # the sequence euler-rk4 integrates",
+        "",
+        "# [torque]   # none: torque free. A constant torque [N m] in body components:",
+        "# kind = \"constant\"",
+        "# torque = [0.0, 0.0, 1e-4]",
+        "# or a magnetic dipole in a field (kind = \"magnetic\", field = \"uniform\" | \"orbit-dipole\" | \"igrf\" | ...; the",
+        "# README's scenario keys); with a torque, the reference is \"dop853\".",
+        "",
+        "[study]",
+        "reference = \"exact\"   # torque free: the closed-form solution; else \"dop853\" or \"fine\"",
+        f"steps = {_toml_list(steps)}   # [s], the full study",
+        f"quick_steps = {_toml_list(quick)}   # [s], --quick",
+        f"tolerances = {_toml_list(DEFAULT_TOLERANCES)}   # an adaptive method's ladder (relative tolerances)",
+        f"quick_tolerances = {_toml_list(QUICK_TOLERANCES)}",
+        f"adaptive_step = {min(ADAPTIVE_STEP, MODEL_DURATION)!r}   # [s], an adaptive method's output step",
+        "# methods = [\"lie-rkmk4\", \"mujoco-rk4\"]   # every method when left out (xcheck list)",
+        "reference_method = \"lie-rkmk4\"   # for reference = \"fine\"",
+        "reference_dt = 0.0001   # [s], for reference = \"fine\"",
+        "",
+        "[checks]",
+        *(f"{k} = {DEFAULT_CHECKS[k]!r}" + {"order_tolerance": "   # observed order at least expected minus this",
+                                            "order_excess": "   # and at most expected plus this",
+                                            "final_error": "   # [rad], a fourth-order method at its finest step",
+                                            "invariant_tolerance": "   # relative energy and momentum drift",
+                                            "agreement": "   # [rad], an engine's RK4 against our best"}[k]
+          for k in ("order_tolerance", "order_excess", "final_error", "invariant_tolerance", "agreement")),
+        f"expected_to_fail = {fail_list}",
+        "",
+    ]
+    return "\n".join(lines), tuple(assumptions)
+
+
+def scenario_from_model(text) -> Scenario:
+    """The scenario of an MJCF file alone, ``MODEL.xml`` or ``MODEL.xml#KEYFRAME`` (see
+    :func:`model_scenario_text`): read as if from the file ``xcheck init`` writes, its assumptions kept for the
+    report."""
+    path, keyframe = split_model_arg(text)
+    if not path.is_file():
+        raise ScenarioError(f"{path}: no such MJCF file")
+    toml_text, assumptions = model_scenario_text(path, keyframe, model_ref=str(path.resolve()))
+    scenario = _parse_scenario(toml_text, path, check_model=True)
+    scenario.assumptions = assumptions
+    return scenario

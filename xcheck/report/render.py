@@ -409,6 +409,9 @@ def _scenario_blocks(st, figs) -> list:
     blocks = [Heading(2, sc.name, anchor=sc.name, badge=("passed", "pass") if st.passed else ("FAILED", "fail"))]
     if sc.description:
         blocks.append(Para(sc.description))
+    if sc.assumptions:  # a scenario made from an MJCF file alone: what xcheck assumed, in words
+        blocks.append(Para([("Assumed from the MJCF alone (xcheck init writes them into a scenario file to edit): ",
+                             "b"), ("; ".join(sc.assumptions) + ".", None)]))
     q0 = (np.round(sc.q0, 6) + 0.0).tolist()
     w0 = (np.round(sc.omega0, 6) + 0.0).tolist()
     blocks.append(Para([("Model ", None), (str(sc.model), "code"), (f", {sc.duration:g} s, reference ", None),

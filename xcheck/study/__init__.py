@@ -69,7 +69,8 @@ class StudyResult:
                 "quick": self.quick, "steps": list(self.steps), "order_floor": self.order_floor,
                 "versions": self.versions, "methods": {n: m.to_json() for n, m in self.methods.items()},
                 "checks": [c.to_json() for c in self.checks], "passed": self.passed,
-                "comparisons": list(self.comparisons)}
+                "comparisons": list(self.comparisons),
+                **({"assumptions": list(sc.assumptions)} if sc.assumptions else {})}
 
 
 def default_methods(scenario: Scenario) -> list[str]:

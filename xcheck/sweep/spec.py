@@ -48,7 +48,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..scenario import Scenario, ScenarioError, _Reader, resolve_scenario
+from ..scenario import Scenario, ScenarioError, _Reader, is_model_arg, resolve_scenario
 
 try:
     import tomllib
@@ -272,9 +272,9 @@ def _read(path: Path, top: _Reader, data: dict, max_cells: int | None = None) ->
         if key not in _TOP_KEYS:
             top.fail(key, f"unknown key (expected one of: {', '.join(_TOP_KEYS)})")
     base_text = top.get("base", "string", required=True)
-    relative = (path.parent / base_text)
+    relative = path.parent / base_text  # a scenario file or an MJCF model (MODEL.xml#KEY), beside the spec
     try:
-        base = resolve_scenario(relative if relative.suffix == ".toml" else base_text)
+        base = resolve_scenario(relative if relative.suffix == ".toml" or is_model_arg(base_text) else base_text)
     except ScenarioError as exc:
         top.fail("base", f"the base scenario cannot be used: {exc}")
     combine = top.get("combine", "string", "product")
