@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 from html.parser import HTMLParser
+from pathlib import Path
 
 import matplotlib.image as mpimg
 import pytest
@@ -18,6 +19,7 @@ from xcheck.paths import BUNDLED_MODELS
 from xcheck.scenario import bundled_scenarios
 
 SCEN = BUNDLED_MODELS / "scenarios"
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def xcheck(*args, cwd=None):
@@ -415,3 +417,57 @@ def test_a_signal_that_a_module_turned_into_its_own_error_is_still_an_interrupt(
     assert cli._run(argparse.Namespace(func=command)) == code
     err = capsys.readouterr().err
     assert f"xcheck: {word}; no report was written" in err and "internal error" not in err
+
+
+def test_the_quick_report_in_a_real_browser(quick_report, tmp_path):
+    """Issue 26: the quick report as Chromium shows it in a 1400 x 900 window: every image loaded (natural width
+    > 0), every internal link leads to an element, the first screen holds the overall verdict and the whole
+    method x scenario matrix, nothing wider than the window (wide tables scroll inside their box), no error on
+    the console, the long check tables folded (none failed). The README's picture is this browser's screenshot
+    (docs/report-first-screen.png, 1400 x 900)."""
+    from browser import CHROMIUM, WHY_NOT, probe, screenshot
+
+    if CHROMIUM is None:
+        pytest.skip(WHY_NOT)
+    _, out = quick_report
+    page = out / "latest" / "index.html"
+    got = probe(page, size=(1400, 900))
+    assert got["images"] >= 18 and got["images_broken"] == [], got
+    assert got["links"] >= 6 and got["links_broken"] == [], got
+    assert got["verdict_top"] < got["matrix_top"] < got["matrix_bottom"] <= 900, got
+    assert got["scroll_width"] <= 1400 and got["wide"] == [], got
+    assert got["errors"] == [], got
+    assert got["details"] == 6 and got["details_open"] == 0, got  # one check table a scenario, every check passed
+    shot = screenshot(page, tmp_path / "first.png", size=(1400, 900))
+    from PIL import Image
+
+    assert Image.open(shot).size == (1400, 900)
+    picture = ROOT / "docs" / "report-first-screen.png"
+    assert Image.open(picture).size == (1400, 900), "refresh it with tests/browser.py's screenshot"
+
+
+def test_every_link_of_the_readme_and_the_docs_resolves():
+    """Issue 26: every relative link in README.md and docs/*.md names a file of the repository, and a link with
+    ``#anchor`` into a Markdown file names one of its headings (GitHub's anchors: lower case, spaces to ``-``,
+    punctuation dropped)."""
+    import re
+
+    def anchors(md: Path) -> set:
+        heads = re.findall(r"^#+ (.+)$", md.read_text(encoding="utf-8"), re.M)
+        return {re.sub(r"[^\w\- ]", "", h.strip().lower()).replace(" ", "-") for h in heads}
+
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    assert "what-the-report-answers" in anchors(ROOT / "docs" / "commands.md")  # the README's deep link
+    broken = []
+    for page in pages:
+        text = re.sub(r"```.*?```", "", page.read_text(encoding="utf-8"), flags=re.S)
+        for target in re.findall(r"\]\(([^)\s]+)\)", text):
+            if re.match(r"[a-z]+:", target):
+                continue  # an address outside the repository
+            path, _, anchor = target.partition("#")
+            dest = (page.parent / path).resolve() if path else page
+            if not dest.exists():
+                broken.append(f"{page.name}: {target} (no such file)")
+            elif anchor and dest.suffix == ".md" and anchor not in anchors(dest):
+                broken.append(f"{page.name}: {target} (no such heading)")
+    assert not broken, broken

@@ -54,7 +54,8 @@ def markdown_tables(md: str):
     out = []
     for i, line in enumerate(lines[:-1]):
         if line.startswith("| ") and lines[i + 1].startswith("|---"):
-            header = [h.strip() for h in line.strip("|").split(" | ")]
+            # a header cell may be a link (the front matrix's scenarios): its text is what HTML shows
+            header = [re.sub(r"^\[(.*)\]\(#[^)]*\)$", r"\1", h.strip()) for h in line.strip("|").split(" | ")]
             rows = 1
             while i + 2 + rows - 1 < len(lines) and lines[i + 2 + rows - 1].startswith("| "):
                 rows += 1

@@ -14,7 +14,7 @@ import html
 from dataclasses import dataclass, field
 from pathlib import Path
 
-__all__ = ["Heading", "Para", "Verdict", "Cell", "Table", "Figure", "to_markdown", "to_html"]
+__all__ = ["Heading", "Para", "Verdict", "Cell", "Table", "Figure", "Contents", "to_markdown", "to_html"]
 
 
 @dataclass
@@ -52,6 +52,17 @@ class Cell:
 class Table:
     header: list
     rows: list = field(default_factory=list)  # lists of Cell (or str)
+    #: a long table folded under this summary in HTML (``<details>``), unfolded when a row fails; None: shown
+    fold: str | None = None
+    header_links: list | None = None  # per header cell, an anchor in the same document (or None)
+    compact: bool = False  # one line a cell (the front matrix)
+
+
+@dataclass
+class Contents:
+    """Links to the document's sections: ``[(text, anchor, verdict class or "")]``."""
+
+    entries: list
 
 
 @dataclass
@@ -85,7 +96,8 @@ def to_markdown(blocks) -> str:
         elif isinstance(b, Verdict):
             out += [f"{_MARK.get(b.cls, '')} **{b.text}**".strip(), ""]
         elif isinstance(b, Table):
-            out.append("| " + " | ".join(b.header) + " |")
+            links = b.header_links or [None] * len(b.header)
+            out.append("| " + " | ".join(f"[{h}](#{a})" if a else h for h, a in zip(b.header, links)) + " |")
             out.append("|" + "---|" * len(b.header))
             for row in b.rows:
                 cells = []
@@ -97,6 +109,9 @@ def to_markdown(blocks) -> str:
             out.append("")
         elif isinstance(b, Figure):
             out += [f"![{b.caption}](plots/{b.file})", "", f"*{b.caption}*", ""]
+        elif isinstance(b, Contents):
+            out += [f"- {_MARK.get(cls, '')} [{text}](#{anchor})".replace("-  [", "- [") for text, anchor, cls
+                    in b.entries] + [""]
         else:
             raise TypeError(f"not a report block: {b!r}")
     return "\n".join(out).rstrip() + "\n"
@@ -117,11 +132,18 @@ figure{margin:1em 0}figure img{max-width:100%}figcaption{font-size:.85em;color:#
 .small{font-size:.85em;color:#555}
 .chip{display:inline-block;width:.9em;height:.9em;border:1px solid #bbb;vertical-align:middle;margin:0 .15em}
 .chip.pass{background:#dff5e1}.chip.fail{background:#fbdada}.chip.expected{background:#fff0c8}.chip.info{background:#eef}
+.scroll{overflow-x:auto;max-width:100%}.scroll table{margin:.5em 0}table.compact td{white-space:nowrap;padding:.1em .4em}
+details{margin:1em 0}summary{cursor:pointer;font-size:.9em}
+nav.contents ul{columns:3;list-style:none;padding-left:0;font-size:.9em}nav.contents li{margin:.1em 0}
 """
 
 
 def _e(x) -> str:
     return html.escape(str(x), quote=True)
+
+
+def _chip(cls: str) -> str:
+    return f"<span class='chip {_e(cls)}'></span>" if cls else ""
 
 
 def to_html(blocks, plot_dir: Path, *, title: str) -> str:
@@ -141,7 +163,13 @@ def to_html(blocks, plot_dir: Path, *, title: str) -> str:
         elif isinstance(b, Verdict):
             parts.append(f"<p class='verdict {_e(b.cls)}'>{_e(b.text)}</p>")
         elif isinstance(b, Table):
-            parts.append("<table><tr>" + "".join(f"<th>{_e(h)}</th>" for h in b.header) + "</tr>")
+            if b.fold is not None:  # folded, unless a row failed
+                failed = any(_cell(c).cls == "fail" for row in b.rows for c in row)
+                parts.append(f"<details{' open' if failed else ''}><summary>{_e(b.fold)}</summary>")
+            links = b.header_links or [None] * len(b.header)
+            heads = "".join(f"<th><a href='#{_e(a)}'>{_e(h)}</a></th>" if a else f"<th>{_e(h)}</th>"
+                            for h, a in zip(b.header, links))
+            parts.append(f"<div class='scroll'><table{' class=compact' if b.compact else ''}><tr>{heads}</tr>")
             for row in b.rows:
                 cells = []
                 for c in map(_cell, row):
@@ -150,7 +178,11 @@ def to_html(blocks, plot_dir: Path, *, title: str) -> str:
                     text = f"<a href='#{_e(c.link)}'>{_e(c.text)}</a>" if c.link else _e(c.text)
                     cells.append(f"<td{attrs}>{text}</td>")
                 parts.append("<tr>" + "".join(cells) + "</tr>")
-            parts.append("</table>")
+            parts.append("</table></div>" + ("</details>" if b.fold is not None else ""))
+        elif isinstance(b, Contents):
+            parts.append("<nav class='contents'><b>Contents</b><ul>" + "".join(
+                f"<li>{_chip(cls)}<a href='#{_e(anchor)}'>{_e(text)}</a></li>" for text, anchor, cls in b.entries)
+                + "</ul></nav>")
         elif isinstance(b, Figure):
             data = base64.b64encode((Path(plot_dir) / b.file).read_bytes()).decode("ascii")
             parts.append(f"<figure><img alt='{_e(b.caption)}' src='data:image/png;base64,{data}'>"

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..trajectory import step_label
 from ..versions import machine, versions
-from .document import Cell, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
+from .document import Cell, Contents, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
 from .io import write_json_atomic, write_text_atomic, write_trajectory_csv
 
 __all__ = ["write_report", "draw_figures", "report_document", "report_results", "with_sections", "Section",
@@ -297,11 +297,16 @@ def report_document(studies, results: dict, figures: dict, *, extra=(), summary:
     methods = []
     for st in studies:
         methods += [m for m in st.methods if m not in methods]
-    blocks.append(Table(["scenario"] + methods,
-                        [[Cell(st.name, link=st.name)] + [_front_cell(st, m) for m in methods] for st in studies]))
+    # methods down, scenarios across: a screen holds the whole matrix (18 methods x 6 scenarios, one line a cell)
+    blocks.append(Table(["method"] + [st.name for st in studies],
+                        [[Cell(m)] + [_front_cell(st, m) for st in studies] for m in methods],
+                        header_links=[None] + [st.name for st in studies], compact=True))
     blocks.append(Heading(2, "In words", anchor="in-words"))
     for st in studies:
         blocks.append(Para([(f"{st.name}: ", "b"), (scenario_summary(st), None)]))
+    blocks.append(Contents([(st.name, st.name, "pass" if st.passed else "fail") for st in studies]
+                           + [(h.text, h.anchor, "") for h in extra if isinstance(h, Heading) and h.anchor]
+                           + [("Appendix: versions, machine, throughput", "appendix", "")]))
     for st in studies:
         blocks += _scenario_blocks(st, figures.get(st.name, []))
     blocks += list(extra)
@@ -418,12 +423,16 @@ def _scenario_blocks(st, figs) -> list:
                         (sc.reference, "b"), (f"; q0 = {q0}, ω0 = {w0} rad/s; torque: {sc.torque or 'none'}. Orders "
                                               f"are measured on errors above {st.order_floor:.2g} rad.", None)],
                        small=True))
+    blocks += [Figure(file, caption) for file, caption in figs]  # the figures first, then the tables behind them
     rows = []
     for c in st.checks:
         cls = ("expected" if c.kind == "expected-failure" else "pass") if c.passed else "fail"
         rows.append([c.name, Cell("pass" if c.passed else "FAIL", cls), Cell(fmt(c.value, ".3g"), num=True),
                      Cell(fmt(c.limit, ".3g"), num=True), c.note])
-    blocks.append(Table(["check", "result", "value", "limit", "note"], rows))
+    failed = sum(not c.passed for c in st.checks)
+    blocks.append(Table(["check", "result", "value", "limit", "note"], rows,
+                        fold=f"{len(st.checks)} checks, {failed} failed" + (" (shown)" if failed else
+                                                                          " (click to show)")))
     rows = []
     fixed = {n: m for n, m in st.methods.items() if not m.adaptive}
     adaptive = {n: m for n, m in st.methods.items() if m.adaptive}
@@ -461,7 +470,6 @@ def _scenario_blocks(st, figs) -> list:
                                                 for k in keys])
     blocks.append(Table(["method", *(f"within {k} rad" for k in keys)], rows))
     blocks += engines_compared(st)
-    blocks += [Figure(file, caption) for file, caption in figs]
     return blocks
 
 
