@@ -79,7 +79,7 @@ def test_markdown_and_html_show_the_same_tables_and_figures(report):
     # front table, checks, methods, what a tolerance costs, throughput
     assert len(parser.tables) == 5
     assert markdown_tables(md) == parser.tables
-    assert parser.tables[2]["header"] == ["method", "expected", "observed", "1/8", "1/16", "1/32", "steps/s"]
+    assert parser.tables[2]["header"] == ["method", "expected", "observed", "1/8 s", "1/16 s", "1/32 s", "steps/s"]
     assert parser.tables[2]["rows"] == 4  # header + 3 methods
     assert parser.tables[3]["header"] == ["method", "within 1e-03 rad", "within 1e-06 rad", "within 1e-09 rad"]
     assert parser.tables[3]["rows"] == 4

@@ -427,8 +427,10 @@ def _scenario_blocks(st, figs) -> list:
     rows = []
     for c in st.checks:
         cls = ("expected" if c.kind == "expected-failure" else "pass") if c.passed else "fail"
-        rows.append([c.name, Cell("pass" if c.passed else "FAIL", cls), Cell(fmt(c.value, ".3g"), num=True),
-                     Cell(fmt(c.limit, ".3g"), num=True), c.note])
+        unit = CHECK_UNITS.get(c.kind, "")
+        rows.append([c.name, Cell("pass" if c.passed else "FAIL", cls),
+                     Cell(fmt(c.value, ".3g") + (unit if c.value is not None else ""), num=True),
+                     Cell(fmt(c.limit, ".3g") + (unit if c.limit is not None else ""), num=True), c.note])
     failed = sum(not c.passed for c in st.checks)
     blocks.append(Table(["check", "result", "value", "limit", "note"], rows,
                         fold=f"{len(st.checks)} checks, {failed} failed" + (" (shown)" if failed else
@@ -442,7 +444,9 @@ def _scenario_blocks(st, figs) -> list:
         rows.append([Cell(name, m.verdict), "adaptive" if m.expected_order is None else str(m.expected_order),
                      Cell(fmt(m.observed_order, ".2f"), num=True), *(_run_cell(by_dt.get(d)) for d in st.steps),
                      Cell(f"{max(rates):.3g}" if rates else "", num=True)])
-    blocks.append(Table(["method", "expected", "observed", *(step_label(d) for d in st.steps), "steps/s"], rows))
+    blocks.append(Para("Every method's attitude error [rad] at the end of the run, at each step Δt [s]; the "
+                       "orders expected and observed; its best speed [steps/s].", small=True))
+    blocks.append(Table(["method", "expected", "observed", *(f"{step_label(d)} s" for d in st.steps), "steps/s"], rows))
     if adaptive:
         tols = sorted({r.rtol for m in adaptive.values() for r in m.runs}, reverse=True)
         out_step = step_label(next(iter(adaptive.values())).runs[0].dt)
@@ -471,6 +475,10 @@ def _scenario_blocks(st, figs) -> list:
     blocks.append(Table(["method", *(f"within {k} rad" for k in keys)], rows))
     blocks += engines_compared(st)
     return blocks
+
+
+#: The unit of a check's value and limit, by kind (an order has none; the drift of an invariant is relative).
+CHECK_UNITS = {"final-error": " rad", "agreement": " rad", "invariants": " (relative)"}
 
 
 def _run_cell(r) -> Cell:
