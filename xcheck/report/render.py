@@ -420,7 +420,8 @@ def _scenario_blocks(st, figs) -> list:
     q0 = (np.round(sc.q0, 6) + 0.0).tolist()
     w0 = (np.round(sc.omega0, 6) + 0.0).tolist()
     blocks.append(Para([("Model ", None), (str(sc.model), "code"), (f", {sc.duration:g} s, reference ", None),
-                        (sc.reference, "b"), (f"; q0 = {q0}, ω0 = {w0} rad/s; torque: {sc.torque or 'none'}. Orders "
+                        (sc.reference, "b"), (f"; q0 = {q0} (body → world), ω0 = {w0} rad/s (body frame); torque: "
+                                              f"{_torque_text(sc.torque)}. Orders "
                                               f"are measured on errors above {st.order_floor:.2g} rad.", None)],
                        small=True))
     blocks += [Figure(file, caption) for file, caption in figs]  # the figures first, then the tables behind them
@@ -475,6 +476,17 @@ def _scenario_blocks(st, figs) -> list:
     blocks.append(Table(["method", *(f"within {k} rad" for k in keys)], rows))
     blocks += engines_compared(st)
     return blocks
+
+
+def _torque_text(torque) -> str:
+    """A scenario's torque in words, with units and frames."""
+    if not torque:
+        return "none"
+    if torque.get("kind") == "constant":
+        return f"constant {torque['torque']} N·m (body frame)"
+    rest = ", ".join(f"{k} = {v}" for k, v in torque.items() if k not in ("kind", "field", "dipole"))
+    dipole = f", dipole {torque['dipole']} A·m² (body frame)" if "dipole" in torque else ", the MJCF's dipole"
+    return f"magnetic, field {torque.get('field')}" + dipole + (f" ({rest})" if rest else "")
 
 
 #: The unit of a check's value and limit, by kind (an order has none; the drift of an invariant is relative).
