@@ -118,6 +118,16 @@ def test_init_writes_the_scenario_the_model_path_runs(tmp_path, capsys, monkeypa
     np.testing.assert_array_equal(from_file.q0, from_model.q0)
     np.testing.assert_array_equal(from_file.omega0, from_model.omega0)
     assert from_file.model.resolve() == path.resolve()
+    from xcheck.study import run_study
+
+    a, b = (run_study(sc, methods=["lie-rkmk4", "mujoco-rk4"], steps=[0.25, 0.125], workers=1, timing=False)
+            for sc in (from_file, from_model))
+    def numbers(doc):  # every number but the times
+        if isinstance(doc, dict):
+            return {k: numbers(v) for k, v in doc.items() if k not in ("wall_time", "steps_per_second", "repeats")}
+        return [numbers(v) for v in doc] if isinstance(doc, list) else doc
+
+    assert numbers(a.data["methods"]) == numbers(b.data["methods"])  # the same study, bit for bit
     assert main(["init", str(path)]) == 2  # it does not replace a file unasked
     assert "exists; give another --out, or --force" in capsys.readouterr().err
     assert main(["init", str(path), "--force", "--keyframe", "still"]) == 0
