@@ -18,7 +18,7 @@ import numpy as np
 from . import rotations as rot
 from .body import RigidBody
 
-__all__ = ["ModelError", "MJCFBody", "load_body", "load_mujoco", "initial_state", "InitialState", "DEFAULT_RATE",
+__all__ = ["ModelError", "MJCFBody", "load_body", "load_mujoco", "composite_inertia", "initial_state", "InitialState", "DEFAULT_RATE",
            "DIPOLE_NUMERIC"]
 
 #: The name of the ``<custom><numeric>`` that holds the permanent dipole [A m^2].
@@ -171,10 +171,9 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
     jnt = free[0]
     body_id = int(model.jnt_bodyid[jnt])
     body_name = name(mujoco.mjtObj.mjOBJ_BODY, body_id)
-    for b in range(1, model.nbody):
-        if b != body_id and model.body_rootid[b] == model.body_rootid[body_id]:
-            refuse(f"body '{name(mujoco.mjtObj.mjOBJ_BODY, b)}' is attached to the free body '{body_name}': more "
-                   "than one moving body (merge their inertia into one <inertial>)")
+    # a part without a joint of its own (an axle, a panel, an antenna) is welded to it: one rigid body (a part with
+    # a joint was refused above)
+    parts = [b for b in range(1, model.nbody) if model.body_rootid[b] == model.body_rootid[body_id]]
     if model.neq:
         refuse(f"{model.neq} equality constraint(s): out of scope (one free rigid body)")
     if model.nu:
@@ -207,9 +206,19 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
                      "about the centre of mass")
         model.opt.gravity[:] = 0.0
 
-    moments = model.body_inertia[body_id].copy()
-    R = rot.quat_to_dcm(model.body_iquat[body_id])
-    inertia = R @ np.diag(moments) @ R.T
+    mass, com, inertia = composite_inertia(model, body_id)
+    moments, axes = np.linalg.eigh(inertia)  # the principal moments and axes in the body frame (sorted)
+    if len(parts) == 1:  # one body: MuJoCo's own principal moments and frame, as compiled
+        moments = model.body_inertia[body_id].copy()
+        R = rot.quat_to_dcm(model.body_iquat[body_id])
+        inertia = R @ np.diag(moments) @ R.T
+        iquat = model.body_iquat[body_id].copy()
+    else:
+        if np.linalg.det(axes) < 0:
+            axes[:, 2] *= -1
+        iquat = rot.dcm_to_quat(axes)
+        notes.append(f"{len(parts)} bodies without joints welded into one rigid body: mass {mass:g} kg, centre of "
+                     f"mass {np.round(com, 9).tolist()} m in the frame of '{body_name}'")
     dipole = np.zeros(3)
     nid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_NUMERIC, DIPOLE_NUMERIC)
     if nid >= 0:
@@ -220,13 +229,39 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
         adr = int(model.numeric_adr[nid])
         dipole = model.numeric_data[adr:adr + 3].copy()
     try:
-        body = MJCFBody(inertia=inertia, mass=float(model.body_mass[body_id]), dipole=dipole,
+        body = MJCFBody(inertia=inertia, mass=float(mass), dipole=dipole,
                         name=body_name if not body_name.startswith("#") else path.stem, path=where,
                         notes=tuple(notes), body_id=body_id, qpos_adr=int(model.jnt_qposadr[jnt]), dof_adr=dof,
-                        model_moments=tuple(moments.tolist()), model_iquat=tuple(model.body_iquat[body_id].tolist()))
+                        model_moments=tuple(moments.tolist()), model_iquat=tuple(np.asarray(iquat).tolist()))
     except ValueError as exc:
         raise ModelError(f"{where}: body '{body_name}': {exc}") from None
     return model, body
+
+
+def composite_inertia(model, root: int) -> tuple[float, np.ndarray, np.ndarray]:
+    """A body and the bodies below it in the tree that have no joints, as one rigid body (issue 27): its mass
+    [kg], centre of mass [m] and inertia tensor about that centre [kg m^2], both in ``root``'s frame. Each part's
+    pose in the root's frame is the chain of its ``body_pos``/``body_quat`` (fixed: no joints), its own inertia is
+    ``body_inertia`` about its centre (``body_ipos``) in its principal frame (``body_iquat``); the sum is the
+    parallel-axis theorem, I_C = sum_b [R_b I_b R_b^T + m_b (|d_b|^2 E - d_b d_b^T)], d_b = c_b - c."""
+    pose = {root: (np.zeros(3), np.eye(3))}
+    order = [root]
+    for b in range(root + 1, model.nbody):  # MuJoCo numbers a parent before its children
+        parent = int(model.body_parentid[b])
+        if parent in pose and not model.body_jntnum[b]:
+            p, R = pose[parent]
+            pose[b] = (p + R @ model.body_pos[b], R @ rot.quat_to_dcm(model.body_quat[b]))
+            order.append(b)
+    masses = np.array([model.body_mass[b] for b in order])
+    centres = np.array([pose[b][0] + pose[b][1] @ model.body_ipos[b] for b in order])
+    mass = float(masses.sum())
+    com = masses @ centres / mass
+    inertia = np.zeros((3, 3))
+    for b, m, c in zip(order, masses, centres):
+        R = pose[b][1] @ rot.quat_to_dcm(model.body_iquat[b])
+        d = c - com
+        inertia += R @ np.diag(model.body_inertia[b]) @ R.T + m * (d @ d * np.eye(3) - np.outer(d, d))
+    return mass, com, 0.5 * (inertia + inertia.T)
 
 
 def _possible_contact(model):
@@ -235,7 +270,8 @@ def _possible_contact(model):
         return ("<contact><pair>", "explicitly listed")
     for g1 in range(model.ngeom):
         for g2 in range(g1 + 1, model.ngeom):
-            if model.geom_bodyid[g1] == model.geom_bodyid[g2]:
+            b1, b2 = model.geom_bodyid[g1], model.geom_bodyid[g2]
+            if b1 == b2 or model.body_weldid[b1] == model.body_weldid[b2]:  # one rigid body: MuJoCo skips them
                 continue
             if (model.geom_contype[g1] & model.geom_conaffinity[g2]) or \
                     (model.geom_contype[g2] & model.geom_conaffinity[g1]):

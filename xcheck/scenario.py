@@ -530,7 +530,7 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         name = "model-" + name
     name = (name + (f"-{state.keyframe}" if keyframe is not None else ""))[:100]
     name = re.sub(r"[^A-Za-z0-9_.-]+", "-", name)
-    assumptions = [f"initial state: {state.source}", *state.notes,
+    assumptions = [f"initial state: {state.source}", *state.notes, *body.notes,
                    f"duration {MODEL_DURATION:g} s (the default); torque free (the model declares no torque)",
                    "reference: the exact torque-free solution (closed form)"]
     expected_to_fail, sequence = [], "323"
