@@ -63,3 +63,36 @@ def test_gravitys_generalized_force_is_the_heavy_tops_torque_about_the_pivot():
     c = m.body_ipos[1]  # the centre of mass from the pivot (the joint at the body origin), body frame
     tau = np.cross(c, m.body_mass[1] * R.T @ m.opt.gravity)
     np.testing.assert_allclose(-d.qfrc_bias, tau, rtol=1e-13, atol=1e-15)
+
+
+def test_the_gravity_torque_model_is_mujocos_gravity_on_the_ball_joint():
+    """xcheck's GravityTorque (the compiled dipole-in-a-uniform-field kernel with M_p = c, mu0 H = m g) against
+    MuJoCo's own gravity on the ball joint, at five attitudes, and against c x (m R^T g) written out."""
+    from xcheck.fields import GravityTorque
+
+    m = _model()
+    d = mujoco.MjData(m)
+    torque = GravityTorque(m.body_ipos[1], m.body_mass[1], m.opt.gravity)
+    assert torque.attitude_dependent
+    rng = np.random.default_rng(27)
+    for _ in range(5):
+        q_rel = rot.quat_normalize(rng.normal(size=4))
+        d.qpos[:] = q_rel
+        mujoco.mj_forward(m, d)
+        q_world = d.xquat[1].copy()  # body -> world: the attitude our torque models read
+        R = rot.quat_to_dcm(q_world)
+        got = torque(0.0, q_world, np.zeros(3))
+        np.testing.assert_allclose(got, np.cross(m.body_ipos[1], m.body_mass[1] * R.T @ m.opt.gravity), rtol=1e-14,
+                                   atol=1e-15)
+        np.testing.assert_allclose(got, -d.qfrc_bias, rtol=1e-12, atol=1e-14)
+
+
+def test_a_gravity_torque_with_no_mass_is_refused_naming_it():
+    import pytest
+
+    from xcheck.fields import GravityTorque
+
+    with pytest.raises(ValueError, match="mass: expected a positive finite mass in kg, got 0.0"):
+        GravityTorque([0, 0, 0.1], 0.0, [0, 0, -9.81])
+    with pytest.raises(ValueError, match="gravity: expected a finite"):
+        GravityTorque([0, 0, 0.1], 1.0, [0, float("nan"), -9.81])

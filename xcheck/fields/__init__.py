@@ -35,6 +35,7 @@ from .models import (
                      BodyFieldTable,
                      ConstantTorque,
                      Field,
+                     GravityTorque,
                      Key,
                      MagneticTorque,
                      TorqueModel,
@@ -53,7 +54,8 @@ from .rax1 import (
 from .tables import load_field_table, write_field_table
 
 __all__ = [
-    "MU0", "FIELDS", "Field", "Key", "TorqueModel", "ConstantTorque", "MagneticTorque", "BodyFieldTable",
+    "MU0", "FIELDS", "Field", "Key", "TorqueModel", "ConstantTorque", "MagneticTorque", "GravityTorque",
+    "BodyFieldTable",
     "WorldFieldTable", "UniformField", "OrbitDipoleField", "IGRFField", "torque_eval", "torque_needs_attitude",
     "magnetic_torque", "load_field_table", "write_field_table", "orbit_position", "RAX1_ORBIT",
     "IGRF2010_DIPOLE_NT", "SEED004_INITIAL_TORQUE", "nearest_achievable_torque", "rax1_orbit_phase_residual",

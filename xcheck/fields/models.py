@@ -97,6 +97,26 @@ class MagneticTorque(TorqueModel):
         return f"magnetic dipole {self.dipole.tolist()} A m^2 in {self.field.describe()}"
 
 
+class GravityTorque(MagneticTorque):
+    """Gravity's torque about a pivot (issue 27, the heavy top): ``tau = c x (m R^T g)`` in body components, ``c``
+    [m] the centre of mass from the pivot (body frame), ``m`` [kg], ``g`` [m/s^2] (world frame). It has the form of
+    a dipole in a field fixed in the world, ``tau = mu0 (M_p x H_body)`` with ``M_p = c`` and ``mu0 H = m g``, so
+    it is evaluated by that compiled kernel, at every stage like the magnetic torque (attitude dependent). MuJoCo's
+    own gravity gives the same torque on a ball joint (``tests/test_mujoco_ball_joint.py``)."""
+
+    def __init__(self, centre, mass: float, gravity):
+        self.centre = _vector3("centre", centre, "m")
+        if not (np.isfinite(mass) and mass > 0):
+            raise ValueError(f"mass: expected a positive finite mass in kg, got {mass!r}")
+        self.mass = float(mass)
+        self.gravity = _vector3("gravity", gravity, "m/s^2")
+        super().__init__(self.centre, UniformField(self.mass * self.gravity / kernel.MU0))
+
+    def describe(self) -> str:
+        return (f"gravity {self.gravity.tolist()} m/s^2 on {self.mass:g} kg, centre of mass {self.centre.tolist()} m "
+                "from the pivot")
+
+
 def magnetic_torque(dipole, H_body):
     """``mu0 (M_p x H)`` (seed 004 eq. 174) for stacks ``(..., 3)``: dipole [A m^2], H [A/m] -> [N m]."""
     return kernel.MU0 * np.cross(np.asarray(dipole, float), np.asarray(H_body, float))
