@@ -429,8 +429,6 @@ def _cmd_sweep(args) -> int:
 
 def _cmd_init(args) -> int:
     """The scenario file an MJCF file stands for, every key present and commented, to edit."""
-    import os as _os
-
     from .report.io import check_output_file, write_text_atomic
     from .scenario import is_model_arg, model_scenario_text, split_model_arg
 
@@ -444,7 +442,7 @@ def _cmd_init(args) -> int:
     check_output_file(out, "--out", suffixes=(".toml",))
     if out.exists() and not args.force:
         raise UsageError(f"--out: {out} exists; give another --out, or --force to replace it")
-    relative = _os.path.relpath(path.resolve(), out.resolve().parent)
+    relative = os.path.relpath(path.resolve(), out.resolve().parent)
     text, assumptions = model_scenario_text(path, keyframe, model_ref=Path(relative).as_posix())
     write_text_atomic(out, text)
     _WRITTEN.append(out)

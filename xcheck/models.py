@@ -102,6 +102,7 @@ class InitialState:
     keyframe: str | None
     keyframes: tuple
     notes: tuple = ()
+    body: MJCFBody | None = None  # the body the state is of, as load_body reads it
 
 
 #: The body rate [rad/s], body frame, of a model that has no keyframe: about every axis, the largest about the
@@ -126,7 +127,7 @@ def initial_state(path, keyframe: str | None = None) -> InitialState:
         q0 = np.asarray(model.qpos0[qa + 3:qa + 7], dtype=float)
         return InitialState(q0, np.asarray(DEFAULT_RATE, dtype=float),
                             f"no <keyframe>: the body's pose in the MJCF and the default body rate "
-                            f"{list(DEFAULT_RATE)} rad/s (body frame)", None, names)
+                            f"{list(DEFAULT_RATE)} rad/s (body frame)", None, names, body=body)
     k = names.index(keyframe) if keyframe is not None else 0
     qpos, qvel = model.key_qpos[k], model.key_qvel[k]
     q0 = np.asarray(qpos[qa + 3:qa + 7], dtype=float)
@@ -142,7 +143,7 @@ def initial_state(path, keyframe: str | None = None) -> InitialState:
         notes.append("the keyframe's body rate is zero: the body does not turn, and every method is exact")
     which = f"keyframe {names[k]!r}" + (" (the first of the model's)" if keyframe is None and len(names) > 1 else "")
     return InitialState(q0, omega0, f"the {which}: qpos and qvel of the free joint", names[k],
-                        names, tuple(notes))
+                        names, tuple(notes), body=body)
 
 
 def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
@@ -206,14 +207,13 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
                      "about the centre of mass")
         model.opt.gravity[:] = 0.0
 
-    mass, com, inertia = composite_inertia(model, body_id)
-    moments, axes = np.linalg.eigh(inertia)  # the principal moments and axes in the body frame (sorted)
-    if len(parts) == 1:  # one body: MuJoCo's own principal moments and frame, as compiled
-        moments = model.body_inertia[body_id].copy()
-        R = rot.quat_to_dcm(model.body_iquat[body_id])
+    if len(parts) == 1:  # one body: MuJoCo's own mass, principal moments and frame, as compiled
+        mass, moments, iquat = model.body_mass[body_id], model.body_inertia[body_id].copy(), model.body_iquat[body_id]
+        R = rot.quat_to_dcm(iquat)
         inertia = R @ np.diag(moments) @ R.T
-        iquat = model.body_iquat[body_id].copy()
     else:
+        mass, com, inertia = composite_inertia(model, body_id)
+        moments, axes = np.linalg.eigh(inertia)  # the principal moments and axes in the body frame (sorted)
         if np.linalg.det(axes) < 0:
             axes[:, 2] *= -1
         iquat = rot.dcm_to_quat(axes)

@@ -480,6 +480,14 @@ MODEL_DURATION = 10.0
 EULER_MARGIN_DEG = 10.0
 
 
+#: The [checks] keys ``xcheck init`` writes, each with its comment.
+_CHECK_HELP = {"order_tolerance": "observed order at least expected minus this",
+               "order_excess": "and at most expected plus this",
+               "final_error": "[rad], a fourth-order method at its finest step",
+               "invariant_tolerance": "relative energy and momentum drift",
+               "agreement": "[rad], an engine's RK4 against our best"}
+
+
 def split_model_arg(text: str) -> tuple[Path, str | None]:
     """``MODEL.xml`` or ``MODEL.xml#KEYFRAME`` -> (path, keyframe name or None)."""
     path, sep, key = str(text).partition("#")
@@ -516,20 +524,17 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
     (the report states them). ``model_ref``: the model as the file names it (relative to where it is written;
     default: the path as given). :class:`ScenarioError` naming the file for a model xcheck cannot check (its
     refusal) or a keyframe it does not have."""
-    from .models import ModelError, initial_state, load_body
+    from .models import ModelError, initial_state
     from .reference import ReferenceFailure
 
     model = Path(model)
     try:
         state = initial_state(model, keyframe)
-        body = load_body(model)
     except ModelError as exc:
         raise ScenarioError(str(exc)) from None
-    name = re.sub(r"[^A-Za-z0-9_.-]+", "-", model.stem).strip("-.") or "model"
-    if not name[0].isalnum():
-        name = "model-" + name
-    name = (name + (f"-{state.keyframe}" if keyframe is not None else ""))[:100]
-    name = re.sub(r"[^A-Za-z0-9_.-]+", "-", name)
+    body = state.body
+    stem = model.stem + (f"-{state.keyframe}" if keyframe is not None else "")
+    name = re.sub(r"[^A-Za-z0-9_.-]+|\.{2,}", "-", stem).strip("-._")[:100] or "model"  # check_name's identifier
     assumptions = [f"initial state: {state.source}", *state.notes, *body.notes,
                    f"duration {MODEL_DURATION:g} s (the default); torque free (the model declares no torque)",
                    "reference: the exact torque-free solution (closed form)"]
@@ -570,8 +575,8 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         "# [torque]   # none: torque free. A constant torque [N m] in body components:",
         "# kind = \"constant\"",
         "# torque = [0.0, 0.0, 1e-4]",
-        "# or a magnetic dipole in a field (kind = \"magnetic\", field = \"uniform\" | \"orbit-dipole\" | \"igrf\" | ...; the",
-        "# README's scenario keys); with a torque, the reference is \"dop853\".",
+        "# or a magnetic dipole in a field (kind = \"magnetic\", field = \"uniform\" | \"orbit-dipole\" | \"igrf\" | ...; see",
+        "# docs/scenarios.md); with a torque, the reference is \"dop853\".",
         "",
         "[study]",
         "reference = \"exact\"   # torque free: the closed-form solution; else \"dop853\" or \"fine\"",
@@ -585,12 +590,7 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         "reference_dt = 0.0001   # [s], for reference = \"fine\"",
         "",
         "[checks]",
-        *(f"{k} = {DEFAULT_CHECKS[k]!r}" + {"order_tolerance": "   # observed order at least expected minus this",
-                                            "order_excess": "   # and at most expected plus this",
-                                            "final_error": "   # [rad], a fourth-order method at its finest step",
-                                            "invariant_tolerance": "   # relative energy and momentum drift",
-                                            "agreement": "   # [rad], an engine's RK4 against our best"}[k]
-          for k in ("order_tolerance", "order_excess", "final_error", "invariant_tolerance", "agreement")),
+        *(f"{k} = {DEFAULT_CHECKS[k]!r}   # {why}" for k, why in _CHECK_HELP.items()),
         f"expected_to_fail = {fail_list}",
         "",
     ]
@@ -602,9 +602,7 @@ def scenario_from_model(text) -> Scenario:
     :func:`model_scenario_text`): read as if from the file ``xcheck init`` writes, its assumptions kept for the
     report."""
     path, keyframe = split_model_arg(text)
-    if not path.is_file():
-        raise ScenarioError(f"{path}: no such MJCF file")
     toml_text, assumptions = model_scenario_text(path, keyframe, model_ref=str(path.resolve()))
-    scenario = _parse_scenario(toml_text, path, check_model=True)
+    scenario = _parse_scenario(toml_text, path, check_model=False)  # loaded just now, and torque free
     scenario.assumptions = assumptions
     return scenario

@@ -35,7 +35,7 @@ class SingleRun:
     @property
     def measured_at_end(self) -> bool:
         """Whether the run completed and the reference is defined at its last time."""
-        return self.traj.ok and bool(np.isfinite(self.error[-1])) if len(self.error) else False
+        return self.traj.ok and len(self.error) > 0 and bool(np.isfinite(self.error[-1]))
 
     @property
     def max_error(self) -> float:
