@@ -28,6 +28,7 @@ else:  # pragma: no cover
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "check_scenario_model", "scenario_from_model",
            "model_scenario_text", "is_model_arg", "bundled_scenarios",
            "resolve_scenario", "check_name", "check_steps", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
+           "ADAPTIVE_TURN", "default_adaptive_step",
            "SCENARIO_DIR"]
 
 SCENARIO_DIR = BUNDLED_MODELS / "scenarios"
@@ -43,8 +44,26 @@ QUICK_TOLERANCES = (1e-3, 1e-5, 1e-7)
 #: ... at one output step [s], where its trajectory is compared with the reference: the coarsest step of a
 #: study (seed 004's). It is also the longest step an engine's adaptive integrator may take (Basilisk's integrate
 #: within each task step) and the hold of its time-dependent inputs: a short one would leave its tolerances
-#: nothing to control.
+#: nothing to control ...
 ADAPTIVE_STEP = 0.5
+#: ... unless the body turns more than this [rad] in it (:func:`default_adaptive_step`). Basilisk switches its MRPs
+#: to the shadow set only between task steps (|σ| ≤ 1: a turn of at most π): a task step that turns the body by
+#: more than π more can cross their singularity (|σ| → ∞ at a turn of 2π), where its adaptive integrators shrink
+#: their steps and lose accuracy
+#: (seed 001's gyroscope at 15.7 rad/s turns 7.9 rad in ½ s: RKF78 at rtol 1e-7 took 0.30 s for 1.1e-6 rad,
+#: against 0.01 s for 1.6e-6 rad at ⅛ s). 2 rad keeps |σ| below tan((π + 2)/4) = 3.4 within any step.
+ADAPTIVE_TURN = 2.0
+
+
+def default_adaptive_step(omega0, duration: float) -> float:
+    """An adaptive method's output step when the scenario names none: :data:`ADAPTIVE_STEP` (at most the
+    duration), halved while the body's initial rate turns it by more than :data:`ADAPTIVE_TURN` in one step
+    (down to 1/1024 s)."""
+    step = min(ADAPTIVE_STEP, duration)
+    rate = float(np.linalg.norm(omega0))
+    while rate * step > ADAPTIVE_TURN and step > 2.0**-10:
+        step /= 2
+    return step
 
 DEFAULT_CHECKS = {
     "order_tolerance": 0.3,  # allowed expected - observed order (a defect lowers the order)
@@ -317,7 +336,7 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
             st.fail(key, str(exc) if key in st.table else f"the default steps do not fit: {exc}; give [study] {key}")
     tolerances = _tolerances(st, "tolerances", DEFAULT_TOLERANCES)
     quick_tolerances = _tolerances(st, "quick_tolerances", QUICK_TOLERANCES)
-    adaptive_step = st.positive("adaptive_step", min(ADAPTIVE_STEP, duration))
+    adaptive_step = st.positive("adaptive_step", default_adaptive_step(omega0, duration))
     try:
         check_steps([adaptive_step], duration)
     except ValueError as exc:
@@ -584,7 +603,8 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         f"quick_steps = {_toml_list(quick)}   # [s], --quick",
         f"tolerances = {_toml_list(DEFAULT_TOLERANCES)}   # an adaptive method's ladder (relative tolerances)",
         f"quick_tolerances = {_toml_list(QUICK_TOLERANCES)}",
-        f"adaptive_step = {min(ADAPTIVE_STEP, MODEL_DURATION)!r}   # [s], an adaptive method's output step",
+        f"adaptive_step = {default_adaptive_step(state.omega0, MODEL_DURATION)!r}   # [s], an adaptive method's output "
+        f"step (it turns the body by at most {ADAPTIVE_TURN:g} rad at the initial rate)",
         "# methods = [\"lie-rkmk4\", \"mujoco-rk4\"]   # every method when left out (xcheck list)",
         "reference_method = \"lie-rkmk4\"   # for reference = \"fine\"",
         "reference_dt = 0.0001   # [s], for reference = \"fine\"",
