@@ -6,7 +6,7 @@ import pytest
 
 from xcheck import rotations as rot
 from xcheck.metrics import kinetic_energy, world_momentum
-from xcheck.reference import dop853, elliptic_period, exact_torque_free
+from xcheck.reference import dop853, dop853_solution, elliptic_period, exact_torque_free
 
 T = np.linspace(0.0, 10.0, 401)
 Q0 = rot.quat_normalize([0.8, 0.1, -0.4, 0.3])
@@ -92,3 +92,24 @@ def test_elliptic_period():
 def test_dop853_rejects_descending_times():
     with pytest.raises(ValueError, match="t: expected ascending times from 0"):
         dop853([1.0, 2.0, 3.0], Q0, [0.1, 0.2, 0.3], [1.0, 0.5])
+
+
+def test_dop853_restarts_at_a_field_tables_rows():
+    """Truth: lie-rkmk4 at 1/4096 s, whose steps fall on the table's rows (every 1/2 s), so that its order-4 error
+    is 2.6e-14 rad (its difference from 1/2048 s). The body-frame field table is linear between its rows, its
+    derivative jumps at them: DOP853 restarted there agrees with it to 1e-13 rad; stepping across them it was
+    1.6e-12 rad and 3e-12 rad/s off (its error estimate is no estimate across a kink)."""
+    from xcheck.runners import RUNNERS
+    from xcheck.scenario import resolve_scenario
+    from xcheck.study.context import run_context
+
+    sc = resolve_scenario("rax1-body-field")
+    ctx = run_context(sc)
+    breaks = ctx.torque.breakpoints(ctx.duration)
+    assert np.array_equal(breaks, np.arange(0.5, 10.0, 0.5))
+    fine = RUNNERS["lie-rkmk4"].run(ctx, 1 / 4096)
+    q, w = dop853_solution(ctx.inertia, ctx.q0, ctx.omega0, ctx.duration, torque=ctx.torque)(fine.t)
+    assert rot.attitude_error(q, fine.q).max() < 1e-13 and np.abs(w - fine.omega).max() < 1e-14
+    from xcheck.fields.models import ConstantTorque
+
+    assert len(ctx.torque.breakpoints(0.5)) == 0 and len(ConstantTorque([0.0, 0.0, 1e-4]).breakpoints(5.0)) == 0

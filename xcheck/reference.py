@@ -204,42 +204,48 @@ _DOP853_STEPS_PER_RAD = 3.0
 
 
 def solve_bounded(method, fun, y0, duration: float, *, rtol: float, atol: float, what: str,
-                  max_steps: int | None = None, max_seconds: float | None = None):
+                  max_steps: int | None = None, max_seconds: float | None = None, breakpoints=()):
     """scipy's ``method`` (an ``OdeSolver`` class) from 0 to ``duration`` with a bounded effort; returns the
     dense :class:`scipy.integrate.OdeSolution`. :class:`ReferenceFailure` (naming ``what``) when the solver
     fails, the state becomes non-finite, or the run takes more than ``max_steps`` steps or ``max_seconds``
-    (default :data:`SOLVER_MAX_STEPS`, :data:`SOLVER_MAX_SECONDS`)."""
+    (default :data:`SOLVER_MAX_STEPS`, :data:`SOLVER_MAX_SECONDS`). ``breakpoints``: times in (0, duration)
+    where ``fun`` is not smooth (a table's rows): the solver restarts at each, so that no step straddles one
+    (an error estimate across a kink is no estimate; DOP853 rejected step after step there)."""
     import time
 
     from scipy.integrate import OdeSolution
 
     max_steps = SOLVER_MAX_STEPS if max_steps is None else max_steps
     max_seconds = SOLVER_MAX_SECONDS if max_seconds is None else max_seconds
-
-    solver = method(fun, 0.0, y0, float(duration), rtol=rtol, atol=atol)
+    ends = [float(b) for b in np.unique(breakpoints) if 0 < b < duration] + [float(duration)]
     ts, pieces = [0.0], []
     start = time.perf_counter()
-    while solver.status == "running":
-        message = solver.step()
-        if solver.status == "failed":
-            raise ReferenceFailure(f"{what} failed at t = {solver.t:.6g} s: {message}")
-        if not np.all(np.isfinite(solver.y)):
-            raise ReferenceFailure(f"{what} became non-finite at t = {solver.t:.6g} s")
-        ts.append(solver.t)
-        pieces.append(solver.dense_output())
-        elapsed = time.perf_counter() - start
-        if solver.status == "running" and (len(pieces) >= max_steps or elapsed > max_seconds):
-            raise ReferenceFailure(
-                f"{what} gave up at t = {solver.t:.6g} of {duration:g} s after {len(pieces)} steps and "
-                f"{elapsed:.0f} s (its budget: {max_steps} steps or {max_seconds:g} s): the motion is too fast to "
-                f"resolve at rtol {rtol:g} over this duration; shorten the duration or lower the rates")
+    y, t0 = np.asarray(y0, dtype=float), 0.0
+    for t1 in ends:
+        solver = method(fun, t0, y, t1, rtol=rtol, atol=atol)
+        while solver.status == "running":
+            message = solver.step()
+            if solver.status == "failed":
+                raise ReferenceFailure(f"{what} failed at t = {solver.t:.6g} s: {message}")
+            if not np.all(np.isfinite(solver.y)):
+                raise ReferenceFailure(f"{what} became non-finite at t = {solver.t:.6g} s")
+            ts.append(solver.t)
+            pieces.append(solver.dense_output())
+            elapsed = time.perf_counter() - start
+            if solver.t < duration and (len(pieces) >= max_steps or elapsed > max_seconds):
+                raise ReferenceFailure(
+                    f"{what} gave up at t = {solver.t:.6g} of {duration:g} s after {len(pieces)} steps and "
+                    f"{elapsed:.0f} s (its budget: {max_steps} steps or {max_seconds:g} s): the motion is too fast "
+                    f"to resolve at rtol {rtol:g} over this duration; shorten the duration or lower the rates")
+        y, t0 = solver.y, t1
     return OdeSolution(ts, pieces)
 
 
 def dop853_solution(inertia, q0, omega0, duration: float, *, torque=None, rtol: float = 1e-13,
                     atol: float = 1e-15, max_steps: int | None = None):
     """High-accuracy reference: scipy DOP853 on ``[q, omega]`` from 0 to ``duration`` (rtol 1e-13, atol 1e-15),
-    as a function ``t (n,) -> (q (n, 4) normalised, omega (n, 3))`` on its dense output.
+    as a function ``t (n,) -> (q (n, 4) normalised, omega (n, 3))`` on its dense output; restarted at the torque's
+    breakpoints (a field table's rows), where its time derivative jumps.
 
     The effort is bounded (:func:`solve_bounded`); a motion that plainly needs more than ``max_steps``
     (estimated from ``|omega0| duration``) is refused at once. Both raise :class:`ReferenceFailure`."""
@@ -253,8 +259,9 @@ def dop853_solution(inertia, q0, omega0, duration: float, *, torque=None, rtol: 
             f"the DOP853 reference would need about {_DOP853_STEPS_PER_RAD * turned:.3g} steps for |omega0| T = "
             f"{turned:.3g} rad (its budget: {max_steps} steps): the motion is too fast to resolve at rtol {rtol:g} "
             f"over {float(duration):g} s; shorten the duration or lower the rates")
+    breaks = torque.breakpoints(duration) if hasattr(torque, "breakpoints") else ()
     sol = solve_bounded(DOP853, rigid_body_rhs(I, torque), np.concatenate([q0, omega0]), duration, rtol=rtol,
-                        atol=atol, what="the DOP853 reference", max_steps=max_steps)
+                        atol=atol, what="the DOP853 reference", max_steps=max_steps, breakpoints=breaks)
 
     def at(t):
         y = sol(np.asarray(t, dtype=float)).T

@@ -62,6 +62,11 @@ class TorqueModel:
     def check_span(self, t_end: float) -> None:
         """Raise ValueError if the model is not defined on ``[0, t_end]``."""
 
+    def breakpoints(self, t_end: float) -> np.ndarray:
+        """The times in ``(0, t_end)`` where the torque's time derivative jumps (a linearly interpolated table's
+        rows): an adaptive reference restarts there (:func:`xcheck.reference.dop853_solution`)."""
+        return np.empty(0)
+
     def describe(self) -> str:
         return type(self).__name__
 
@@ -92,6 +97,9 @@ class MagneticTorque(TorqueModel):
 
     def check_span(self, t_end: float) -> None:
         self.field.check_span(t_end)
+
+    def breakpoints(self, t_end: float) -> np.ndarray:
+        return self.field.breakpoints(t_end)
 
     def describe(self) -> str:
         return f"magnetic dipole {self.dipole.tolist()} A m^2 in {self.field.describe()}"
@@ -172,6 +180,11 @@ class Field:
 
     def check_span(self, t_end: float) -> None:
         """Raise ValueError if the field is not defined on ``[0, t_end]``."""
+
+    def breakpoints(self, t_end: float) -> np.ndarray:
+        """A table's rows in ``(0, t_end)``: the field is linear between them, its derivative jumps at them."""
+        t = self.T[:, 0] if self.T.size else np.empty(0)
+        return t[(t > 0) & (t < t_end)]
 
     def strength(self, t) -> np.ndarray:
         """Field strength [A/m] in the components of :attr:`frame` at times ``t`` (...,) -> (..., 3)."""
