@@ -108,3 +108,56 @@ def test_a_failed_or_erratic_step_bounds_the_range():
     errors[4] = 1.0  # an outlier at dt = 0.00625: the steps above it are not trusted
     w = largest_step_within(STEP_DTS, errors, walls, 1e-6)
     assert w.how == "interpolated" and STEP_DTS[5] < w.dt < STEP_DTS[4]
+
+
+def _numpy_errors(traj, q_ref, omega_ref):
+    """The errors as numpy states them: rotations.attitude_error and a norm over the rows (the truth the compiled
+    pass must equal bit for bit)."""
+    from xcheck import rotations as rot
+
+    att = rot.attitude_error(traj.q, q_ref)
+    om = np.linalg.norm(traj.omega - omega_ref, axis=-1)
+    return {"attitude_error": float(att[-1]), "max_attitude_error": float(att.max()),
+            "omega_error": float(om[-1]), "max_omega_error": float(om.max())}
+
+
+def _numpy_drifts(inertia, traj):
+    from xcheck.metrics import kinetic_energy, world_momentum
+
+    E = kinetic_energy(inertia, traj.omega)
+    H = world_momentum(inertia, traj.q, traj.omega)
+    E0, H0 = E[0], np.linalg.norm(H[0])
+    return {"energy_drift": float(np.max(np.abs(E - E0)) / E0), "momentum_drift":
+            float(np.max(np.linalg.norm(H - H[0], axis=-1)) / H0),
+            "norm_drift": float(np.max(np.abs(np.linalg.norm(traj.q, axis=-1) - 1.0)))}
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_compiled_metrics_are_numpys_bit_for_bit(seed):
+    """Random trajectories (quaternions of any length, a rotated inertia tensor) against their numpy statement."""
+    from xcheck import rotations as rot
+    from xcheck.metrics import errors_against, invariant_drift
+
+    rng = np.random.default_rng(seed)
+    n = 1000 + 37 * seed
+    q = rng.normal(size=(n, 4)) * rng.uniform(0.5, 2.0, size=(n, 1))
+    q_ref = q + rng.normal(scale=10.0 ** -rng.uniform(3, 14, size=(n, 1)), size=(n, 4))
+    w, w_ref = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+    R = rot.quat_to_dcm(rot.quat_normalize(rng.normal(size=4)))
+    inertia = R @ np.diag([1.0, 2.0, 2.5]) @ R.T
+    traj = Trajectory(t=np.arange(n) * 0.01, q=q, omega=w)
+    assert errors_against(traj, q_ref, w_ref) == _numpy_errors(traj, q_ref, w_ref)
+    assert invariant_drift(inertia, traj) == _numpy_drifts(inertia, traj)
+
+
+def test_a_nan_in_a_run_is_its_largest_error_as_with_numpy():
+    from xcheck.metrics import errors_against
+
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (5, 1))
+    w = np.zeros((5, 3))
+    bad = w.copy()
+    bad[2, 1] = np.nan
+    out = errors_against(Trajectory(t=np.arange(5.0), q=q, omega=bad), q, w)
+    assert np.isnan(out["max_omega_error"]) and out["omega_error"] == 0.0 and out["max_attitude_error"] == 0.0
+    with pytest.raises(ValueError, match="as many"):
+        errors_against(Trajectory(t=np.arange(5.0), q=q, omega=w), q[:4], w[:4])

@@ -35,7 +35,8 @@ __all__ = ["njit", "prange", "numba", "cache_root", "user_cache_home", "COMPILED
 
 PACKAGE = Path(__file__).resolve().parent
 #: The package files with ``cache=True`` functions, relative to the package folder.
-COMPILED_SOURCES = ("fields/kernel.py", "integrators/_kernels.py", "determination/methods.py", "engines/held_input.py")
+COMPILED_SOURCES = ("fields/kernel.py", "integrators/_kernels.py", "determination/methods.py", "engines/held_input.py",
+                    "metrics.py")
 
 
 def user_cache_home() -> Path:
