@@ -53,11 +53,11 @@ class _Runner:
 
 
 @pytest.mark.parametrize("seconds, first, repeats, best", [
-    (0.001, None, 5, 0.001),   # short: the run limit (5) comes first
-    (0.004, None, 3, 0.004),   # 4 + 4 = 8 ms < 10 ms, the third crosses the budget
-    (0.008, 0.030, 1, 0.030),  # a first run over the budget is not repeated
-    (0.002, 0.007, 3, 0.002),  # a slow first run (loading) is replaced by the best of the repeats
-    (0.05, None, 1, 0.05),     # long: once
+    (0.0005, None, 5, 0.0005),  # short: the run limit (5) comes first
+    (0.002, None, 3, 0.002),    # 2 + 2 = 4 ms < 5 ms, the third crosses the budget
+    (0.004, 0.015, 1, 0.015),   # a first run over the budget is not repeated
+    (0.001, 0.0035, 3, 0.001),  # a slow first run (loading) is replaced by the best of the repeats
+    (0.05, None, 1, 0.05),      # long: once
 ])
 def test_short_runs_are_repeated_within_a_budget_and_the_best_kept(monkeypatch, seconds, first, repeats, best):
     clock = _Clock(seconds, first)
@@ -226,3 +226,26 @@ def test_xcheck_without_leaves_an_installed_engine_out():
                                      env={**base, **env}, check=True).stdout.strip()
     assert run({}) == str(["basilisk-rk4", "basilisk-rkf45", "basilisk-rkf78"])
     assert run({"XCHECK_WITHOUT": "basilisk"}) == "[]"
+
+
+@pytest.mark.parametrize("rate, duration, step", [
+    (0.0, 10.0, 0.5),       # at rest: the study's coarsest step
+    (4.0, 10.0, 0.5),       # 2 rad in 1/2 s: still 1/2 s
+    (15.71, 10.0, 0.125),   # seed 001's gyroscope: 7.9 rad in 1/2 s, 1.96 in 1/8 s
+    (4.0, 0.3, 0.3),        # a duration shorter than 1/2 s, 1.2 rad in it
+    (1e6, 10.0, 2.0**-10),  # as fast as anything: 1/1024 s at least
+])
+def test_the_default_adaptive_step_turns_the_body_by_at_most_two_radians(rate, duration, step):
+    from xcheck.scenario import ADAPTIVE_TURN, default_adaptive_step
+
+    got = default_adaptive_step(np.array([0.0, 0.6, 0.8]) * rate, duration)
+    assert got == step and (rate * got <= ADAPTIVE_TURN or got == 2.0**-10)
+
+
+def test_a_scenarios_own_adaptive_step_is_kept(tmp_path):
+    text = (resolve_scenario("gyroscope-nonsingular").path.read_text().replace('model = "../gyroscope.xml"',
+            f'model = "{resolve_scenario("gyroscope-nonsingular").model}"') + "adaptive_step = 0.5\n")
+    path = tmp_path / "own.toml"
+    path.write_text(text)
+    assert resolve_scenario(str(path)).adaptive_step == 0.5
+    assert resolve_scenario("gyroscope-nonsingular").adaptive_step == 0.125

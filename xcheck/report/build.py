@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import os
 import time
+from concurrent.futures import Future
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Callable
 
-from .render import Section, with_sections
+from .render import Section, draw_figures, with_sections
 
 __all__ = ["ReportOutcome", "build_report", "resolve_scenarios", "worker_modules"]
 
@@ -77,7 +78,7 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
     called as soon as the folder is complete (an interrupt after it has a complete report). ``started``: the
     first mark (the command's start)."""
     from ..pool import worker_pool
-    from .render import draw_figures, write_report
+    from .render import write_report
 
     t0 = time.perf_counter()
     marks = [("start", t0 if started is None else started), ("pool started", t0)]
@@ -94,14 +95,13 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
             scenarios = resolve_scenarios(scenarios)
         check_output_dir(out, "--out")
         marks.append(("scenarios read", time.perf_counter()))
-        figures = {}
-
-        def draw(study):  # a scenario's figures, drawn by a worker as soon as its studies are in
-            figures[study.name] = pool.submit(draw_figures, study.data, study.series, quick)
-
+        figures = _Figures(pool, quick) if pool is not None else None
         determinations = _start_determinations(scenarios, pool)
         studies = run_studies(scenarios, quick=quick, progress=progress, pool=pool, workers=workers,
-                              on_study=draw if pool is not None else None, here=pool is not None)
+                              on_study=figures.submit if figures else None, here=pool is not None,
+                              idle=figures.draw_one_here if figures else None)
+        while figures and figures.draw_one_here():  # the workers draw the rest
+            pass
         marks.append(("studies", time.perf_counter()))
         if bench is None and run_bench:
             from ..bench import run_bench as measure
@@ -109,7 +109,8 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
             bench = measure(quick=quick, repeat=1)
         determined = determination_section(determinations.values()) if determinations else None
         folder = write_report(studies, out, throughput=throughput_rows(studies) + (bench or []),
-                              wall_time=time.perf_counter() - t0, quick=quick, pool=pool, figures=figures,
+                              wall_time=time.perf_counter() - t0, quick=quick, pool=pool,
+                              figures=figures.futures if figures else None,
                               trajectories=trajectories, marks=marks,
                               sections=_all_sections(determined, sections))
         if written is not None:
@@ -117,6 +118,48 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
     marks.append(("workers stopped", time.perf_counter()))
     return ReportOutcome(studies=studies, folder=folder, marks=marks,
                          determination_passed=determined is None or determined.passed)
+
+
+class _Figures:
+    """Each scenario's figures, drawn once its studies are in. They wait here (:meth:`submit`) while this process
+    has studies of its own to run, so that none is queued before a worker's last runs (Basilisk's, the longest);
+    then (:meth:`draw_one_here`) each worker is kept one figure ahead, taken from the front, and this process
+    draws the others from the back: neither waits for the other, and the figures end within one of each other."""
+
+    def __init__(self, pool, quick: bool):
+        self.pool, self.quick = pool, quick
+        self.futures: dict = {}  # scenario -> Future of draw_figures' result
+        self._held: list = []  # scenarios whose figures are not yet drawn nor given to a worker
+        self._jobs: dict = {}  # scenario -> (data, series)
+        self._workers = getattr(pool, "_max_workers", 1) or 1
+        self._open = False  # figures go to the workers once this process has run out of studies
+
+    def submit(self, study) -> None:
+        self._jobs[study.name] = (study.data, study.series)
+        self._held.append(study.name)
+        self._feed()
+
+    def _feed(self) -> None:
+        if not self._open:
+            return
+        busy = sum(not f.done() for f in self.futures.values())
+        while self._held and busy < self._workers + 1:  # each worker drawing one, one queued behind it
+            name = self._held.pop(0)
+            self.futures[name] = self.pool.submit(draw_figures, *self._jobs[name], self.quick)
+            busy += 1
+
+    def draw_one_here(self) -> bool:
+        """Draw the latest scenario's figures here; whether there was one (none: the workers have the rest)."""
+        self._open = True
+        self._feed()
+        if not self._held:
+            return False
+        name = self._held.pop()
+        drawn = Future()
+        drawn.set_result(draw_figures(*self._jobs[name], self.quick))
+        self.futures[name] = drawn
+        self._feed()
+        return True
 
 
 def _start_determinations(scenarios, pool) -> dict:

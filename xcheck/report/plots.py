@@ -8,8 +8,9 @@ import warnings
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 
 from .. import rotations as rot  # noqa: E402
 from ..runners import RUNNERS  # noqa: E402
@@ -27,7 +28,7 @@ matplotlib.rcParams.update(_STYLE)
 
 
 def colors_of(names):
-    cmap = plt.get_cmap("tab20")
+    cmap = matplotlib.colormaps["tab20"]
     return {n: cmap(i % 20) for i, n in enumerate(names)}
 
 
@@ -84,15 +85,18 @@ def scenario_figures(data: dict, series: dict, out_dir, *, quick: bool = False) 
     return out
 
 
-def new_figure(*args, **kwargs):
-    """``plt.subplots`` in the report's style."""
-    return plt.subplots(*args, **kwargs)
+def new_figure(*args, figsize=None, **kwargs):
+    """``plt.subplots`` in the report's style, without pyplot (its import is 0.27 s a process; a figure of our own
+    is in no global registry, so nothing needs closing)."""
+    fig = Figure(figsize=figsize)
+    FigureCanvasAgg(fig)
+    return fig, fig.subplots(*args, **kwargs)
 
 
 def subplots(nrows=1, ncols=1, *, size=(7.5, 4.8), legend_outside=False, **kwargs):
     """A figure with fixed margins in inches (room on the right for a legend outside the axes): one drawing
     pass when saved, where ``bbox_inches="tight"`` costs a second one."""
-    fig, axes = plt.subplots(nrows, ncols, figsize=size, **kwargs)
+    fig, axes = new_figure(nrows, ncols, figsize=size, **kwargs)
     w, h = size
     fig.subplots_adjust(left=0.85 / w, right=1 - (2.5 if legend_outside else 0.2) / w, top=1 - 0.35 / h,
                         bottom=0.5 / h, hspace=0.12 if kwargs.get("sharex") else 0.3, wspace=0.08)
@@ -164,8 +168,6 @@ def save_figure(fig, path) -> None:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
-    finally:
-        plt.close(fig)
 
 
 def run_figure(path, title, traj, err) -> None:
@@ -194,12 +196,9 @@ def png_of(fig, file, caption) -> tuple[str, str, bytes]:
 
     from PIL import Image  # matplotlib's own dependency
 
-    try:
-        _plain_log_labels(fig)
-        fig.canvas.draw()
-        rgba = np.asarray(fig.canvas.buffer_rgba())
-    finally:
-        plt.close(fig)
+    _plain_log_labels(fig)
+    fig.canvas.draw()
+    rgba = np.asarray(fig.canvas.buffer_rgba())
     image = Image.fromarray(rgba[..., :3]).quantize(128, method=Image.Quantize.FASTOCTREE)
     buffer = io.BytesIO()
     image.save(buffer, "PNG")

@@ -141,12 +141,12 @@ def _at_step(rows, dt) -> dict:
 def sweep_figures(spec: SweepSpec, rows: list, methods) -> list[tuple[str, str, bytes]]:
     """``[(file, caption, png)]``: error against each axis, the accuracy maps of MuJoCo's integrators, the
     work-precision cloud."""
-    import matplotlib.pyplot as plt
+    import matplotlib
 
     from .plots import png_of
 
     stem = spec.path.stem
-    cmap = plt.get_cmap("tab10" if len(methods) <= 10 else "tab20")
+    cmap = matplotlib.colormaps.get_cmap("tab10" if len(methods) <= 10 else "tab20")
     colors = {m: cmap(i % cmap.N) for i, m in enumerate(methods)}
     figs = []
     with warnings.catch_warnings():
@@ -262,10 +262,10 @@ def _accuracy_maps(spec, rows, mj_methods, axis):
     vmin = max(min(errs, default=1e-12), 1e-16)
     vmax = max(max(errs, default=1.0), vmin * 10)
     norm = LogNorm(vmin=vmin, vmax=vmax)
-    import matplotlib.pyplot as plt
+    import matplotlib
     from matplotlib.colors import ListedColormap
 
-    cmap = plt.get_cmap("viridis")
+    cmap = matplotlib.colormaps.get_cmap("viridis")
     mesh = None
     for ax, m in zip(axes.flat, mj_methods):
         Z = np.full((len(steps), len(xe) - 1), -np.inf)

@@ -125,11 +125,12 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
 
 
 def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, progress=None,
-                pool=None, on_study=None, here: bool = False) -> list[StudyResult]:
+                pool=None, on_study=None, here: bool = False, idle=None) -> list[StudyResult]:
     """Several studies over one pool of worker processes: every (scenario, method) pair is one task,
     submitted together so that both cores stay busy to the end. ``on_study(study)`` is called as soon as a
     scenario's last task is in (the report submits its figures then, behind the studies still queued). ``here``:
-    this process runs tasks too, beside ``pool``."""
+    this process runs tasks too, beside ``pool``, and ``idle()``'s work where it would wait for the workers
+    (:func:`~xcheck.study.executor.map_tasks`)."""
     plans = []
     for sc in scenarios:
         methods = default_methods(sc)
@@ -155,7 +156,7 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
                 on_study(studies[k])
 
     map_tasks(run_method, tasks, workers=workers, progress=progress, pool=pool, labels=labels, on_result=done,
-         here=prefer_here if here else None)
+              here=prefer_here if here else None, idle=idle)
     return studies
 
 

@@ -19,10 +19,11 @@ def prefer_here(task) -> bool:
     return engine is None or not engine.to_workers
 
 
-def map_tasks(fn, tasks, *, workers, progress, pool, labels, on_result=None, here=None):
+def map_tasks(fn, tasks, *, workers, progress, pool, labels, on_result=None, here=None, idle=None):
     """``fn(*task)`` for every task, in ``pool`` (or a pool of its own, or this process for ``workers=1``), calling
     ``record`` as each finishes. ``here``: this process works too, beside the pool (see :func:`_map_here`); a
-    predicate that says which tasks it prefers (None: it only waits)."""
+    predicate that says which tasks it prefers (None: it only waits). ``idle()``: other work this process does
+    where it would wait for the workers (it returns whether it found some)."""
     total = len(tasks)
     out = [None] * total
     count = [0]
@@ -42,9 +43,9 @@ def map_tasks(fn, tasks, *, workers, progress, pool, labels, on_result=None, her
     if pool is None:
         with worker_pool(workers) as own:
             return map_tasks(fn, tasks, workers=workers, progress=progress, pool=own, labels=labels, on_result=on_result,
-                        here=here)
+                        here=here, idle=idle)
     if here is not None:
-        _map_here(fn, tasks, pool, record, here)
+        _map_here(fn, tasks, pool, record, here, idle)
         return out
     futures = {pool.submit(fn, *task): i for i, task in enumerate(tasks)}
     for fut in as_completed(futures):
@@ -52,7 +53,7 @@ def map_tasks(fn, tasks, *, workers, progress, pool, labels, on_result=None, her
     return out
 
 
-def _map_here(fn, tasks, pool, record, prefer) -> None:
+def _map_here(fn, tasks, pool, record, prefer, idle=None) -> None:
     """Share ``tasks`` between ``pool`` and this process. The pool takes them from the front of a queue in which
     the tasks this process would rather not run come first (``prefer(task)`` False: those of an engine the
     workers import as they start), kept one task ahead of its workers so that what else is submitted to it, a
@@ -60,8 +61,13 @@ def _map_here(fn, tasks, pool, record, prefer) -> None:
     waiting for a worker's imports is better run here); this process takes them from the back, collecting
     finished results between its own, and the workers' own too when more are left than the workers take next.
     Every process pays its imports and compiled-code loading once (1-3 s): a worker fewer, and this process
-    working, is that much less to pay."""
-    pending = sorted(range(len(tasks)), key=lambda i: bool(prefer(tasks[i])))  # stable: the given order within
+    working, is that much less to pay. Where it would wait for the workers, it does ``idle()``'s work first (the
+    report's figures of a finished scenario that no worker has started on)."""
+    # the workers' own first, in the reverse order, as this process takes its own from the back: both go through
+    # the scenarios the same way, so that each scenario's study is complete (its figures can be drawn) as soon as
+    # both have passed it, not all of them at the very end
+    theirs = [i for i in range(len(tasks)) if not prefer(tasks[i])]
+    pending = theirs[::-1] + [i for i in range(len(tasks)) if prefer(tasks[i])]
     futures: dict = {}
 
     def collect(block: bool):
@@ -80,10 +86,14 @@ def _map_here(fn, tasks, pool, record, prefer) -> None:
             futures[pool.submit(fn, *tasks[i])] = i
         collect(block=False)
         if not pending:
-            collect(block=True)
+            if not (idle and idle()):
+                collect(block=True)
             continue
-        if not prefer(tasks[pending[-1]]) and futures and len(pending) <= workers:
-            collect(block=True)  # the workers' own, and no more than they take next: wait for them
-            continue
+        if not prefer(tasks[pending[-1]]) and futures:  # only the workers' own are left
+            if idle and idle():  # other work first: one of their tasks here would cost this process the import
+                continue
+            if len(pending) <= workers:
+                collect(block=True)  # no more than they take next: wait for them
+                continue
         i = pending.pop()
         record(i, fn(*tasks[i]))
