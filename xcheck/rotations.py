@@ -146,6 +146,13 @@ def _norm(v: np.ndarray) -> np.ndarray:
     return np.sqrt(np.sum(v * v, axis=-1))
 
 
+def _series_square(x: np.ndarray, small: np.ndarray) -> np.ndarray:
+    """``x**2`` where ``small`` holds, 0 elsewhere: a series' argument, never squared where the series is not used
+    (an angle of a blown-up run would overflow there, and warn, for a value thrown away)."""
+    xz = np.where(small, x, 0.0)
+    return xz * xz
+
+
 def _safe(x: np.ndarray, small: np.ndarray) -> np.ndarray:
     """``x`` with the entries where ``small`` holds replaced by 1 (a denominator never zero)."""
     return np.where(small, 1.0, x)
@@ -158,7 +165,7 @@ def _sinc(x):
     """sin(x)/x."""
     small = x < _SERIES_ANGLE
     xs = _safe(x, small)
-    x2 = x * x
+    x2 = _series_square(x, small)
     return np.where(small, 1 - x2 / 6 * (1 - x2 / 20 * (1 - x2 / 42 * (1 - x2 / 72))), np.sin(xs) / xs)
 
 
@@ -166,7 +173,7 @@ def _one_minus_cos_over_x2(x):
     """(1 - cos x)/x**2 = 2 sin(x/2)**2 / x**2 (no cancellation)."""
     small = x < _SERIES_ANGLE
     xs = _safe(x, small)
-    x2 = x * x
+    x2 = _series_square(x, small)
     series = 0.5 - x2 / 24 * (1 - x2 / 30 * (1 - x2 / 56 * (1 - x2 / 90)))
     return np.where(small, series, 2 * np.sin(xs / 2) ** 2 / (xs * xs))
 
@@ -175,7 +182,7 @@ def _x_minus_sin_over_x3(x):
     """(x - sin x)/x**3."""
     small = x < _SERIES_ANGLE
     xs = _safe(x, small)
-    x2 = x * x
+    x2 = _series_square(x, small)
     series = 1 / 6 - x2 / 120 * (1 - x2 / 42 * (1 - x2 / 72 * (1 - x2 / 110)))
     return np.where(small, series, (xs - np.sin(xs)) / xs**3)
 
@@ -184,7 +191,7 @@ def _dexp_inv_coefficient(x):
     """(1 - (x/2) cot(x/2)) / x**2, the u~**2 coefficient of dexp^-1 (seed 004 eq. 167, seed 000 §1.5.2)."""
     small = x < _SERIES_ANGLE
     xs = _safe(x, small)
-    x2 = x * x
+    x2 = _series_square(x, small)
     series = 1 / 12 + x2 / 720 + x2**2 / 30240 + x2**3 / 1209600 + x2**4 / 47900160
     # (x/2) cot(x/2) = (x/2) cos(x/2) / sin(x/2); sin(x/2) > 0 for 0 < x < 2 pi
     half = xs / 2
