@@ -12,6 +12,7 @@ from .body import validate_inertia
 from .trajectory import Trajectory
 
 __all__ = [
+    "conserved_drift",
     "errors_against",
     "kinetic_energy",
     "world_momentum",
@@ -109,13 +110,16 @@ def world_momentum(inertia, q, omega) -> np.ndarray:
     return rot.quat_rotate(q, np.asarray(omega, dtype=float) @ I.T)
 
 
-def invariant_drift(inertia, traj: Trajectory) -> dict:
+def invariant_drift(inertia, traj: Trajectory, torque=None) -> dict:
     """Relative drift of the invariants over a trajectory (max over the grid).
 
     ``energy_drift`` = max |E - E0| / E0 and ``momentum_drift`` = max |H - H0| / |H0| (conserved when
     torque free), ``norm_drift`` = max ||q| - 1| (of the stored quaternion), and for DCM runs
-    ``orthogonality_drift`` = max |R^T R - I|.
+    ``orthogonality_drift`` = max |R^T R - I|. Under a ``torque`` (a :class:`~xcheck.fields.TorqueModel`), what
+    it conserves (:func:`conserved_drift`), None where it conserves nothing.
     """
+    if torque is not None:
+        return conserved_drift(inertia, traj, torque)
     I = validate_inertia(inertia)
     q, w = _rows(traj.q, 4), _rows(traj.omega, 3)
     if not len(q) == len(w) > 0:
@@ -126,6 +130,30 @@ def invariant_drift(inertia, traj: Trajectory) -> dict:
     E0, H0 = E[0], np.linalg.norm(drift[3:])
     out = {"energy_drift": float(drift[0] / E0) if E0 > 0 else 0.0,
            "momentum_drift": float(drift[1] / H0) if H0 > 0 else 0.0, "norm_drift": float(drift[2])}
+    if "orthogonality" in traj.extras:
+        out["orthogonality_drift"] = float(np.max(traj.extras["orthogonality"]))
+    return out
+
+
+def conserved_drift(inertia, traj: Trajectory, torque) -> dict:
+    """The drift of what a torque conserves (a top's gravity, a dipole in a field fixed in the world): the energy
+    with its potential ``T + V`` (``torque.potential``), relative to ``|T0| + |V0|``; the world angular momentum
+    along ``torque.momentum_axis()``, relative to ``|H0|``; each None when the torque conserves no such thing;
+    and ``norm_drift`` as without a torque."""
+    I = validate_inertia(inertia)
+    q, w = _rows(traj.q, 4), _rows(traj.omega, 3)
+    out = {"energy_drift": None, "momentum_drift": None,
+           "norm_drift": float(np.max(np.abs(np.linalg.norm(q, axis=-1) - 1.0)))}
+    V = torque.potential(q) if hasattr(torque, "potential") else None
+    if V is not None:
+        T = kinetic_energy(I, w)
+        scale = abs(T[0]) + abs(V[0])
+        out["energy_drift"] = float(np.max(np.abs(T + V - T[0] - V[0])) / scale) if scale > 0 else 0.0
+    axis = torque.momentum_axis() if hasattr(torque, "momentum_axis") else None
+    if axis is not None:
+        H = world_momentum(I, q, w)
+        H0 = np.linalg.norm(H[0])
+        out["momentum_drift"] = float(np.max(np.abs((H - H[0]) @ axis)) / H0) if H0 > 0 else 0.0
     if "orthogonality" in traj.extras:
         out["orthogonality_drift"] = float(np.max(traj.extras["orthogonality"]))
     return out

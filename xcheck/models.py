@@ -1,8 +1,10 @@
-"""MJCF models: load a single free rigid body for the cross-check, refusing what is out of scope.
+"""MJCF models: load the one moving rigid body of the cross-check, refusing what is out of scope.
 
-The MJCF is the single source of truth for every engine: the inertia (``<inertial>``, any orientation),
-the mass and the permanent magnetic dipole, stored as ``<custom><numeric name="xcheck_dipole"
-data="mx my mz"/></custom>`` [A m^2] in body components.
+The body turns on a free joint (torque free but for what a scenario applies; its inertia about its centre of
+mass) or on a ball joint (a heavy top: its inertia about the pivot, the model's gravity a torque about it); child
+bodies without joints of their own are welded to it (bodies built from parts). The MJCF is the single source of
+truth for every engine: the inertia (``<inertial>``, any orientation), the mass and the permanent magnetic dipole,
+stored as ``<custom><numeric name="xcheck_dipole" data="mx my mz"/></custom>`` [A m^2] in body components.
 """
 
 from __future__ import annotations
@@ -46,11 +48,60 @@ class MJCFBody(RigidBody):
     dof_adr: int = 0
     model_moments: tuple = ()
     model_iquat: tuple = (1.0, 0.0, 0.0, 0.0)
+    #: ``"free"`` (the inertia about the centre of mass) or ``"ball"`` (a heavy top: the inertia about the pivot)
+    joint: str = "free"
+    #: ball joint: the centre of mass from the pivot [m], body frame (zero on a free joint)
+    centre: tuple = (0.0, 0.0, 0.0)
+    #: ball joint: the model's gravity [m/s^2], world frame (a free body's is switched off: zero)
+    gravity: tuple = (0.0, 0.0, 0.0)
+    #: ball joint: the body's world attitude at the joint's ``qpos`` = identity (its reference orientation, the
+    #: MJCF's ``quat`` and its parents'): the world attitude is ``reference_quat ⊗ qpos``
+    reference_quat: tuple = (1.0, 0.0, 0.0, 0.0)
 
     def inertia_with(self, moments) -> np.ndarray:
-        """The body-frame inertia tensor with ``moments`` in place of :attr:`model_moments` (same axes)."""
+        """The body-frame inertia tensor with ``moments`` (about the centre of mass) in place of
+        :attr:`model_moments` (same axes), about the point the body turns about."""
         R = rot.quat_to_dcm(np.asarray(self.model_iquat, dtype=float))
-        return R @ np.diag(np.asarray(moments, dtype=float)) @ R.T
+        return R @ np.diag(np.asarray(moments, dtype=float)) @ R.T + _parallel_axes(self.mass, self.centre)
+
+    def own_torque(self):
+        """The torque the model itself exerts on the body (None: none): on a ball joint, gravity's about the pivot
+        (:class:`~xcheck.fields.GravityTorque`, evaluated at every stage like any attitude-dependent torque)."""
+        if self.joint != "ball" or not np.any(self.gravity) or not np.any(self.centre):
+            return None
+        from .fields import GravityTorque
+
+        return GravityTorque(self.centre, self.mass, self.gravity)
+
+    def to_joint(self, q) -> np.ndarray:
+        """The joint's ``qpos`` quaternion(s) of world attitude(s) ``q`` (a free joint's is the attitude itself)."""
+        if self.joint == "free":
+            return np.asarray(q, dtype=float)
+        return rot.quat_mul(rot.quat_conj(np.asarray(self.reference_quat, dtype=float)), q)
+
+    def from_joint(self, qpos) -> np.ndarray:
+        """World attitude(s) of the joint's ``qpos`` quaternion(s) (inverse of :meth:`to_joint`)."""
+        if self.joint == "free":
+            return np.asarray(qpos, dtype=float)
+        return rot.quat_mul(np.asarray(self.reference_quat, dtype=float), qpos)
+
+    @property
+    def quat_slice(self) -> slice:
+        """Where the joint's quaternion sits in ``qpos`` (a free joint's after its position)."""
+        a = self.qpos_adr + (3 if self.joint == "free" else 0)
+        return slice(a, a + 4)
+
+    @property
+    def rate_slice(self) -> slice:
+        """Where the body-frame angular velocity sits in ``qvel``."""
+        a = self.dof_adr + (3 if self.joint == "free" else 0)
+        return slice(a, a + 3)
+
+
+def _parallel_axes(mass: float, d) -> np.ndarray:
+    """``m (|d|^2 E - d d^T)``: what the inertia about a point ``d`` from the centre of mass adds."""
+    d = np.asarray(d, dtype=float)
+    return mass * (d @ d * np.eye(3) - np.outer(d, d))
 
 
 def load_body(path) -> MJCFBody:
@@ -82,7 +133,7 @@ def load_mujoco(path) -> tuple[mujoco.MjModel, MJCFBody]:
         _LOADED[key] = _load_mujoco(path, where)
     model, body = _LOADED[key]
     for note in body.notes:
-        warnings.warn(f"{where}: {note}", stacklevel=2)
+        warnings.warn(f"{where}: {note}", stacklevel=1)  # from this module: what the commands filter by
     return copy.copy(model), body
 
 
@@ -119,30 +170,31 @@ def initial_state(path, keyframe: str | None = None) -> InitialState:
     model, body = load_mujoco(path)
     where = str(path)
     names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, k) or f"#{k}" for k in range(model.nkey))
-    qa, da = body.qpos_adr, body.dof_adr
+    da, qs, ws = body.dof_adr, body.quat_slice, body.rate_slice
     if keyframe is not None and keyframe not in names:
         have = f"its keyframes: {', '.join(names)}" if names else "it has no <keyframe>"
         raise ModelError(f"{where}: no keyframe named {keyframe!r} ({have})")
     if not names:
-        q0 = np.asarray(model.qpos0[qa + 3:qa + 7], dtype=float)
+        q0 = body.from_joint(np.asarray(model.qpos0[qs], dtype=float))
         return InitialState(q0, np.asarray(DEFAULT_RATE, dtype=float),
                             f"no <keyframe>: the body's pose in the MJCF and the default body rate "
                             f"{list(DEFAULT_RATE)} rad/s (body frame)", None, names, body=body)
     k = names.index(keyframe) if keyframe is not None else 0
     qpos, qvel = model.key_qpos[k], model.key_qvel[k]
-    q0 = np.asarray(qpos[qa + 3:qa + 7], dtype=float)
-    if not np.all(np.isfinite(q0)) or np.linalg.norm(q0) == 0:
-        raise ModelError(f"{where}: keyframe {names[k]!r}: the free joint's quaternion {q0.tolist()} cannot be "
-                         "normalised")
-    omega0 = np.asarray(qvel[da + 3:da + 6], dtype=float)
+    q_joint = np.asarray(qpos[qs], dtype=float)
+    if not np.all(np.isfinite(q_joint)) or np.linalg.norm(q_joint) == 0:
+        raise ModelError(f"{where}: keyframe {names[k]!r}: the {body.joint} joint's quaternion {q_joint.tolist()} "
+                         "cannot be normalised")
+    q0 = body.from_joint(q_joint / np.linalg.norm(q_joint)) if body.joint == "ball" else q_joint
+    omega0 = np.asarray(qvel[ws], dtype=float)
     notes = []
-    if np.any(qvel[da:da + 3] != 0):
+    if body.joint == "free" and np.any(qvel[da:da + 3] != 0):
         notes.append(f"the keyframe's translational velocity {qvel[da:da + 3].tolist()} m/s is left out: xcheck "
                      "checks the attitude (the free body's translation does not change it)")
     if not np.any(omega0):
         notes.append("the keyframe's body rate is zero: the body does not turn, and every method is exact")
     which = f"keyframe {names[k]!r}" + (" (the first of the model's)" if keyframe is None and len(names) > 1 else "")
-    return InitialState(q0, omega0, f"the {which}: qpos and qvel of the free joint", names[k],
+    return InitialState(q0, omega0, f"the {which}: qpos and qvel of the {body.joint} joint", names[k],
                         names, tuple(notes), body=body)
 
 
@@ -159,34 +211,40 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
     def name(obj, i):
         return mujoco.mj_id2name(model, obj, i) or f"#{i}"
 
-    free = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE]
-    if not free:
-        refuse("no free joint: xcheck needs one body with <freejoint/>")
+    turning = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL))
     for j in range(model.njnt):
-        if model.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE:
+        if int(model.jnt_type[j]) not in turning:
             kind = mujoco.mjtJoint(model.jnt_type[j]).name.removeprefix("mjJNT_").lower()
-            refuse(f"joint '{name(mujoco.mjtObj.mjOBJ_JOINT, j)}' is a {kind} joint: only one free joint is "
-                   "supported")
-    if len(free) > 1:
-        refuse(f"{len(free)} free joints: more than one moving body")
-    jnt = free[0]
+            refuse(f"joint '{name(mujoco.mjtObj.mjOBJ_JOINT, j)}' is a {kind} joint: only one free joint or one ball "
+                   "joint is supported")
+    if model.njnt == 0:
+        refuse("no free joint: xcheck needs one body with <freejoint/> (or, for a top turning about a fixed point, "
+               "a <joint type=\"ball\"/>)")
+    if model.njnt > 1:
+        refuse(f"{model.njnt} joints: more than one moving body (xcheck needs one free or one ball joint)")
+    jnt = 0
+    joint = "free" if int(model.jnt_type[jnt]) == turning[0] else "ball"
+    if joint == "ball" and model.jnt_limited[jnt]:
+        refuse(f"the ball joint '{name(mujoco.mjtObj.mjOBJ_JOINT, jnt)}' has a range: a limit is a constraint "
+               "force xcheck does not model; remove limited/range")
     body_id = int(model.jnt_bodyid[jnt])
     body_name = name(mujoco.mjtObj.mjOBJ_BODY, body_id)
     # a part without a joint of its own (an axle, a panel, an antenna) is welded to it: one rigid body (a part with
     # a joint was refused above)
-    parts = [b for b in range(1, model.nbody) if model.body_rootid[b] == model.body_rootid[body_id]]
+    parts = [b for b in range(1, model.nbody) if model.body_weldid[b] == body_id]
     if model.neq:
         refuse(f"{model.neq} equality constraint(s): out of scope (one free rigid body)")
     if model.nu:
         refuse(f"{model.nu} actuator(s): xcheck applies its own torques; remove the <actuator> section")
     dof = int(model.jnt_dofadr[jnt])
+    ndof = 6 if joint == "free" else 3
     for what, values in (("damping", model.dof_damping), ("armature", model.dof_armature),
                          ("frictionloss", model.dof_frictionloss)):
-        if np.any(values[dof:dof + 6] != 0):
-            refuse(f"the free joint has {what} {values[dof:dof + 6].tolist()}: it would change the rotational "
+        if np.any(values[dof:dof + ndof] != 0):
+            refuse(f"the {joint} joint has {what} {values[dof:dof + ndof].tolist()}: it would change the rotational "
                    "dynamics; set it to 0")
     if model.jnt_stiffness[jnt] != 0:
-        refuse(f"the free joint has stiffness {model.jnt_stiffness[jnt]:g}: a spring pulling the body to its "
+        refuse(f"the {joint} joint has stiffness {model.jnt_stiffness[jnt]:g}: a spring pulling the body to its "
                "reference pose would add torque; set it to 0")
     if model.ntendon:
         refuse(f"{model.ntendon} tendon(s): their springs, damping and limits would add torque; remove the "
@@ -202,13 +260,17 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
         if pair is not None:
             refuse(f"contacts are enabled and geoms '{pair[0]}' and '{pair[1]}' can collide: add "
                    "<flag contact=\"disable\"/> to <option>, or set their contype/conaffinity to 0")
-    if np.any(model.opt.gravity != 0):
+    gravity = np.zeros(3)
+    if np.any(model.opt.gravity != 0) and joint == "free":
         notes.append(f"gravity {model.opt.gravity.tolist()} m/s^2 switched off: a uniform field exerts no torque "
                      "about the centre of mass")
         model.opt.gravity[:] = 0.0
+    elif joint == "ball":
+        gravity = model.opt.gravity.copy()
 
     if len(parts) == 1:  # one body: MuJoCo's own mass, principal moments and frame, as compiled
         mass, moments, iquat = model.body_mass[body_id], model.body_inertia[body_id].copy(), model.body_iquat[body_id]
+        com = model.body_ipos[body_id].copy()
         R = rot.quat_to_dcm(iquat)
         inertia = R @ np.diag(moments) @ R.T
     else:
@@ -219,6 +281,16 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
         iquat = rot.dcm_to_quat(axes)
         notes.append(f"{len(parts)} bodies without joints welded into one rigid body: mass {mass:g} kg, centre of "
                      f"mass {np.round(com, 9).tolist()} m in the frame of '{body_name}'")
+    centre, reference = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
+    if joint == "ball":  # a top: it turns about the pivot, where the joint is (body frame)
+        centre = com - model.jnt_pos[jnt]
+        inertia = inertia + _parallel_axes(mass, centre)
+        data = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)  # at qpos0: the ball joint's identity, the body at its reference pose
+        reference = data.xquat[body_id].copy()
+        notes.append(f"a top on the ball joint '{name(mujoco.mjtObj.mjOBJ_JOINT, jnt)}': inertia about the pivot, "
+                     f"centre of mass {np.round(centre, 9).tolist()} m from it, gravity {gravity.tolist()} m/s^2 kept "
+                     "(its torque about the pivot, c x m R^T g)")
     dipole = np.zeros(3)
     nid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_NUMERIC, DIPOLE_NUMERIC)
     if nid >= 0:
@@ -232,7 +304,9 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
         body = MJCFBody(inertia=inertia, mass=float(mass), dipole=dipole,
                         name=body_name if not body_name.startswith("#") else path.stem, path=where,
                         notes=tuple(notes), body_id=body_id, qpos_adr=int(model.jnt_qposadr[jnt]), dof_adr=dof,
-                        model_moments=tuple(moments.tolist()), model_iquat=tuple(np.asarray(iquat).tolist()))
+                        model_moments=tuple(moments.tolist()), model_iquat=tuple(np.asarray(iquat).tolist()),
+                        joint=joint, centre=tuple(centre.tolist()), gravity=tuple(gravity.tolist()),
+                        reference_quat=tuple(reference.tolist()))
     except ValueError as exc:
         raise ModelError(f"{where}: body '{body_name}': {exc}") from None
     return model, body

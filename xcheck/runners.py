@@ -29,6 +29,9 @@ class RunContext:
     torque: object = None
     sequence: str = "323"
     model_moments: tuple | None = None
+    #: ``torque`` is the model's own (a top's gravity about its pivot): an engine that simulates the MJCF exerts
+    #: it itself, and applies nothing more
+    own_torque: bool = False
 
 
 @dataclass(frozen=True)
@@ -93,7 +96,8 @@ def _mujoco(integrator):
         from .engines.mujoco import simulate
 
         return simulate(ctx.model_path, integrator=integrator, q0=ctx.q0, omega0=ctx.omega0, dt=dt,
-                        duration=ctx.duration, torque=ctx.torque, inertia_moments=ctx.model_moments)
+                        duration=ctx.duration, torque=None if ctx.own_torque else ctx.torque,
+                        inertia_moments=ctx.model_moments)
     return run
 
 

@@ -405,9 +405,12 @@ def check_scenario_model(scenario: Scenario) -> None:
     except ModelError as exc:
         raise ScenarioError(f"{scenario.path}: model: {exc}") from None
     try:
-        build_torque(scenario, body)
+        torque = build_torque(scenario, body)
     except ValueError as exc:
         raise ScenarioError(f"{scenario.path}: [torque]: {exc}") from None
+    if scenario.reference == "exact" and torque is not None:
+        raise ScenarioError(f"{scenario.path}: [study] reference: 'exact' is the torque-free solution, and the model "
+                            f"exerts a torque of its own ({torque.describe()}): use 'dop853' or 'fine'")
 
 
 def _read_torque(tq: _Reader) -> dict:
@@ -446,7 +449,17 @@ MAX_DIPOLE = 1e4
 
 
 def build_torque(scenario: Scenario, body):
-    """The :class:`~xcheck.fields.TorqueModel` of a scenario (None when torque free)."""
+    """The :class:`~xcheck.fields.TorqueModel` on the body of a scenario (None when torque free): the scenario's
+    ``[torque]``, or the one the model exerts itself (a top's gravity about its pivot, ``body.own_torque()``)."""
+    own = body.own_torque() if hasattr(body, "own_torque") else None
+    applied = _applied_torque(scenario, body)
+    if own is not None and applied is not None:
+        raise ValueError(f"{body.path}: a top on a ball joint under gravity with a [torque] of its own: torques that "
+                         "compose are not supported yet; leave out the [torque] (or the model's gravity)")
+    return own if own is not None else applied
+
+
+def _applied_torque(scenario: Scenario, body):
     from . import fields
 
     spec = scenario.torque

@@ -165,9 +165,9 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
     m.opt.timestep = float(dt)
     m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET  # a blow-up must show, not restart from rest
     d = mujoco.MjData(m)
-    qa, da = body.qpos_adr, body.dof_adr
-    d.qpos[qa + 3:qa + 7] = q0
-    d.qvel[da + 3:da + 6] = omega0
+    qs, ws = body.quat_slice, body.rate_slice
+    d.qpos[qs] = body.to_joint(q0)  # a ball joint's qpos is relative to the body's reference orientation
+    d.qvel[ws] = omega0
     t = time_grid(n, float(dt), float(duration))
     with mujoco_warnings() as messages:
         if torque is None:
@@ -177,10 +177,10 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
     method = f"mujoco-{integrator}"
     k = _first_bad_row(qpos, qvel)
     stop = k if k is not None else (n + 1)
-    q = continuous_quaternions(qpos[:stop, qa + 3:qa + 7])
+    q = continuous_quaternions(body.from_joint(qpos[:stop, qs]))
     # its forward dynamics: four evaluations a step in RK4, one in the Euler variants
     evaluations = (4 if integrator == "rk4" else 1) * (stop - 1)
-    traj = Trajectory(t=t[:stop], q=q, omega=qvel[:stop, da + 3:da + 6].copy(), method=method, dt=float(dt),
+    traj = Trajectory(t=t[:stop], q=q, omega=qvel[:stop, ws].copy(), method=method, dt=float(dt),
                       extras={"mujoco_version": mujoco.__version__, "evaluations": evaluations})
     if messages or k is not None:
         traj.status = "failed"
@@ -217,11 +217,13 @@ def _stepped(m, d, n, last_h, body, torque, torque_mode):
     """The torque applied in the control callback, at every stage, through ``rollout`` (its C loop of
     ``mj_step`` on this very ``d``, whose buffers the callback reads and writes: 3.4x the steps per second of a
     Python loop, the same numbers); or held, written before each ``mj_step`` of a Python loop."""
-    qa, da = body.qpos_adr, body.dof_adr
+    if body.joint != "free":  # a torque model reads the world attitude; a ball joint's qpos is relative
+        raise ValueError(f"torque: a torque applied to a body on a {body.joint} joint is not supported yet (its "
+                         "gravity is MuJoCo's own)")
     # views into MjData's fixed buffers, made once
-    q_view = d.qpos[qa + 3:qa + 7]
-    w_view = d.qvel[da + 3:da + 6]
-    tau_view = d.qfrc_applied[da + 3:da + 6]
+    q_view = d.qpos[body.quat_slice]
+    w_view = d.qvel[body.rate_slice]
+    tau_view = d.qfrc_applied[body.rate_slice]
     if isinstance(torque, TorqueModel):
         kind, P, T = torque.kernel_data()
 
@@ -278,8 +280,8 @@ def bench_extras(contexts, dt, nsteps, repeat):
     best = np.inf
     for _ in range(repeat):
         d = mujoco.MjData(m)
-        d.qpos[body.qpos_adr + 3:body.qpos_adr + 7] = ctx.q0
-        d.qvel[body.dof_adr + 3:body.dof_adr + 6] = ctx.omega0
+        d.qpos[body.quat_slice] = body.to_joint(ctx.q0)
+        d.qvel[body.rate_slice] = ctx.omega0
         step = mujoco.mj_step
         t0 = time.perf_counter()
         for _ in range(nsteps):
@@ -303,9 +305,8 @@ def magnetometer_readings(model, q, B_world) -> np.ndarray:
     adr = m.sensor_adr[sensor]
     d = mujoco.MjData(m)
     out = np.empty((len(q), 3))
-    qa = body.qpos_adr
     for k, qk in enumerate(np.asarray(q, dtype=float)):
-        d.qpos[qa + 3:qa + 7] = qk
+        d.qpos[body.quat_slice] = body.to_joint(qk)
         mujoco.mj_forward(m, d)
         out[k] = d.sensordata[adr:adr + 3]
     return out

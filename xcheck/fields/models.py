@@ -67,6 +67,16 @@ class TorqueModel:
         rows): an adaptive reference restarts there (:func:`xcheck.reference.dop853_solution`)."""
         return np.empty(0)
 
+    def potential(self, q) -> np.ndarray | None:
+        """The potential energy [J] at attitudes ``q`` (..., 4) whose torque this is, when it is conservative
+        (then the kinetic energy plus it is conserved); None otherwise."""
+        return None
+
+    def momentum_axis(self) -> np.ndarray | None:
+        """A world direction (unit) about which the torque never has a component, so that the angular momentum
+        along it is conserved; None when there is none."""
+        return None
+
     def describe(self) -> str:
         return type(self).__name__
 
@@ -100,6 +110,29 @@ class MagneticTorque(TorqueModel):
 
     def breakpoints(self, t_end: float) -> np.ndarray:
         return self.field.breakpoints(t_end)
+
+    def _fixed_world_field(self) -> np.ndarray | None:
+        """H [A/m] of a field fixed in the world (uniform, not changing), else None."""
+        if self.field.frame != "world" or self.field.time_dependent:
+            return None
+        return np.asarray(self.field.strength(0.0), dtype=float)
+
+    def potential(self, q) -> np.ndarray | None:
+        """A dipole in a field fixed in the world: ``-mu0 (R M_p) . H`` (a top's ``-m g . (R c)``)."""
+        from ..rotations import quat_rotate
+
+        H = self._fixed_world_field()
+        if H is None:
+            return None
+        return -kernel.MU0 * (quat_rotate(q, self.dipole) @ H)
+
+    def momentum_axis(self) -> np.ndarray | None:
+        """A dipole in a field fixed in the world: the field's direction (the torque ``R (M_p x R^T H)`` is
+        perpendicular to ``H``); a top's: the vertical."""
+        H = self._fixed_world_field()
+        if H is None or not np.any(H):
+            return None
+        return H / np.linalg.norm(H)
 
     def describe(self) -> str:
         return f"magnetic dipole {self.dipole.tolist()} A m^2 in {self.field.describe()}"

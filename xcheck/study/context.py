@@ -42,10 +42,12 @@ def run_context(scenario: Scenario) -> RunContext:
 
         body = load_body(scenario.model)
         moments = scenario.inertia
+        torque = build_torque(scenario, body)
         return RunContext(inertia=body.inertia if moments is None else body.inertia_with(moments),
                           model_path=str(scenario.model), q0=scenario.q0, omega0=scenario.omega0,
-                          duration=scenario.duration, torque=build_torque(scenario, body), sequence=scenario.sequence,
-                          model_moments=None if moments is None else tuple(moments))
+                          duration=scenario.duration, torque=torque, sequence=scenario.sequence,
+                          model_moments=None if moments is None else tuple(moments),
+                          own_torque=torque is not None and scenario.torque is None)
     return _cached("context", scenario, make)
 
 

@@ -113,10 +113,9 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float,
     q_ref, w_ref, mask = ref.at(traj.t)  # at the trajectory's own times (an engine's clock may round the step)
     err = (errors_against(traj, q_ref, w_ref) if mask.all() else
            errors_against(_subset(traj, mask), q_ref[mask], w_ref[mask]))
-    drift = invariant_drift(ctx.inertia, traj)
-    torque_free = ctx.torque is None
-    run = Run(dt=dt, **err, energy_drift=drift["energy_drift"] if torque_free else None,
-              momentum_drift=drift["momentum_drift"] if torque_free else None, norm_drift=drift["norm_drift"],
+    drift = invariant_drift(ctx.inertia, traj, ctx.torque)  # under a torque: what it conserves, if anything
+    run = Run(dt=dt, **err, energy_drift=drift["energy_drift"], momentum_drift=drift["momentum_drift"],
+              norm_drift=drift["norm_drift"],
               wall_time=wall, steps_per_second=_steps_per_second(dt, ctx.duration, wall),
               message=traj.extras.get("clock") or "", repeats=repeats, evaluations=traj.extras.get("evaluations"), rtol=rtol)
     if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
@@ -219,8 +218,17 @@ def _sample(finest, ref, ctx):
            "attitude_error": np.where(mask, rot.attitude_error(q, q_ref), np.nan)}
     E = kinetic_energy(ctx.inertia, out["omega"])
     H = world_momentum(ctx.inertia, q, out["omega"])
-    out["energy_drift"] = E / E[0] - 1 if E[0] > 0 else np.zeros_like(E)
-    out["momentum_drift"] = np.linalg.norm(H - H[0], axis=1) / max(np.linalg.norm(H[0]), 1e-300)
+    V = ctx.torque.potential(q) if ctx.torque is not None else None
+    axis = ctx.torque.momentum_axis() if ctx.torque is not None else None
+    if V is not None:  # what the torque conserves (see metrics.conserved_drift)
+        scale = abs(E[0]) + abs(V[0])
+        out["energy_drift"] = (E + V - E[0] - V[0]) / scale if scale > 0 else np.zeros_like(E)
+    else:
+        out["energy_drift"] = E / E[0] - 1 if E[0] > 0 else np.zeros_like(E)
+    if axis is not None:
+        out["momentum_drift"] = np.abs((H - H[0]) @ axis) / max(np.linalg.norm(H[0]), 1e-300)
+    else:
+        out["momentum_drift"] = np.linalg.norm(H - H[0], axis=1) / max(np.linalg.norm(H[0]), 1e-300)
     if "euler" in traj.extras:
         out["euler"] = traj.extras["euler"][idx]
     if ctx.torque is not None:
