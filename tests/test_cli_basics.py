@@ -26,3 +26,19 @@ def test_version_and_list(capsys):
     assert proc.returncode == 0 and proc.stdout.strip() == f"xcheck {__version__}"
     assert main(["list"]) == 0
     assert "gyroscope-nonsingular" in capsys.readouterr().out
+
+
+def test_the_command_leaves_at_once_with_everything_said(tmp_path):
+    """cli.entry leaves with os._exit once a command ran to its end (the interpreter's teardown cost 0.3 s): what
+    it printed to a pipe and a file is all there, and its exit code is the command's."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "out.txt"
+    with out.open("w") as f:
+        proc = subprocess.run([sys.executable, "-m", "xcheck", "converge", "gyroscope-singular", "--quick", "--methods",
+                               "euler-rk4,lie-rkmk4", "--workers", "1"], stdout=f, stderr=subprocess.PIPE, text=True)
+    text = out.read_text()
+    assert proc.returncode == 0 and "euler-rk4" in text and text.rstrip().splitlines()[-1].startswith("wall time"), text
+    listed = subprocess.run([sys.executable, "-m", "xcheck", "list"], capture_output=True, text=True)
+    assert listed.returncode == 0 and "tumbler-intermediate-axis" in listed.stdout

@@ -144,9 +144,87 @@ def test_refusals_name_the_file_and_the_reason(tmp_path):
     base = (f'name = "top"\nmodel = "{TOP}"\nduration = 1.0\n[initial]\nquaternion = [1, 0, 0, 0]\n'
             'angular_velocity = [0, 0, 10]\n')
     scenario.write_text(base + '[study]\nreference = "exact"\n')
-    with pytest.raises(ScenarioError, match="'exact' is the torque-free solution, and the model exerts a torque of its "
-                                            "own \\(gravity"):
+    with pytest.raises(ScenarioError, match="'exact' is the torque-free solution or Lagrange's top, and the model "
+                                            "exerts a torque of its own \\(gravity.*within 0 deg of the vertical"):
         resolve_scenario(str(scenario))
     scenario.write_text(base + '[torque]\nkind = "constant"\ntorque = [0, 0, 1e-3]\n[study]\nreference = "dop853"\n')
     with pytest.raises(ScenarioError, match="torques that compose are not supported yet"):
         resolve_scenario(str(scenario))
+
+
+# ------------------------------------------------------------------------------------------------------
+# Lagrange's top: the exact reference
+# ------------------------------------------------------------------------------------------------------
+def _top_case(theta_deg, rates):
+    """The bundled top (A = 3.0185e-3, C = 5.625e-3 kg m^2 about the pivot, m g l = 0.199 N m) from Z-Y-Z angles
+    [0, theta, 0] and Euler rates [psi', theta', phi'] [rad/s]."""
+    b = load_body(TOP)
+    angles = np.radians([0.0, theta_deg, 0.0])
+    return b, rot.euler_to_quat(angles, "323"), rot.euler_rates_to_omega(angles, np.asarray(rates, float), "323")
+
+
+CASES = {  # name: (theta0 [deg], Euler rates [rad/s], duration [s])
+    "fast top": (30.0, [0.0, 0.0, 100.0], 2.0),
+    "looping nutation": (30.0, [-1.5, 0.0, 15.71], 3.0),   # psi' changes sign: the axis draws loops
+    "nearly sleeping": (3.0, [0.0, 0.0, 40.0], 3.0),      # above the sleeping limit (C w3)^2 > 4 A m g l
+}
+
+
+@pytest.mark.parametrize("name", CASES)
+def test_the_lagrange_top_agrees_with_dop853(name):
+    """Truth: scipy's DOP853 at rtol 1e-13 on the same equations: within 1e-11 rad and 1e-10 rad/s over the run;
+    the exact motion keeps the energy with its potential and the vertical momentum to 1e-13."""
+    from xcheck.reference import dop853_solution, lagrange_top
+
+    theta, rates, T = CASES[name]
+    b, q0, w0 = _top_case(theta, rates)
+    torque = b.own_torque()
+    t = np.linspace(0.0, T, 2001)
+    q, w = lagrange_top(b.inertia, q0, w0, t, centre=b.centre, force=b.mass * np.array(b.gravity))
+    qr, wr = dop853_solution(b.inertia, q0, w0, T, torque=torque)(t)
+    assert np.max(rot.attitude_error(q, qr)) < 1e-11 and np.max(np.abs(w - wr)) < 1e-10
+    from xcheck.trajectory import Trajectory
+
+    drift = conserved_drift(b.inertia, Trajectory(t=t, q=q, omega=w), torque)
+    assert drift["energy_drift"] < 1e-13 and drift["momentum_drift"] < 1e-13, drift
+    if name == "looping nutation":
+        psi = rot.quat_to_euler(q, "323", warn=False)[:, 0]
+        assert np.any(np.diff(np.unwrap(psi)) > 0) and np.any(np.diff(np.unwrap(psi)) < 0)
+
+
+def test_a_fast_top_has_the_gyroscopic_limits():
+    """Truth: the gyroscopic approximation (Goldstein, Classical Mechanics, section 5.7). For a fast top started
+    without precession, eps = A m g l / (C w3)^2 = 3.8e-5 here: the nutation's angular frequency is C w3 / A and
+    the mean precession rate m g l / (C w3), each to O(eps) relative; the nutation's depth 2 A m g l sin(theta0) /
+    (C w3)^2 to O(eps) too."""
+    from xcheck.reference import lagrange_top
+
+    b, q0, w0 = _top_case(30.0, [0.0, 0.0, 300.0])
+    A, C = b.inertia[0, 0], b.inertia[2, 2]
+    mgl = b.mass * 9.81 * np.linalg.norm(b.centre)
+    w3 = w0[2]
+    eps = A * mgl / (C * w3) ** 2
+    t = np.linspace(0.0, 0.5, 200001)
+    q, _ = lagrange_top(b.inertia, q0, w0, t, centre=b.centre, force=b.mass * np.array(b.gravity))
+    psi, theta, _ = rot.quat_to_euler(q, "323", warn=False).T
+    psi = np.unwrap(psi)
+    # the nutation: theta's returns to its starting value (its minima), their spacing the period
+    lows = np.flatnonzero((theta[1:-1] < theta[:-2]) & (theta[1:-1] <= theta[2:])) + 1
+    period = np.mean(np.diff(t[lows]))
+    assert 2 * np.pi / period == pytest.approx(C * w3 / A, rel=5 * eps + 1e-4)
+    # the mean precession over whole nutation periods
+    rate = (psi[lows[-1]] - psi[lows[0]]) / (t[lows[-1]] - t[lows[0]])
+    assert rate == pytest.approx(mgl / (C * w3), rel=10 * eps + 1e-4)
+    depth = theta.max() - theta.min()
+    assert depth == pytest.approx(2 * A * mgl * np.sin(np.radians(30.0)) / (C * w3) ** 2, rel=0.01)
+
+
+def test_the_lagrange_top_refuses_what_it_cannot_do():
+    from xcheck.reference import ReferenceFailure, exact_why_not, lagrange_top
+
+    b, q0, w0 = _top_case(0.5, [0.0, 0.0, 40.0])  # within 0.6 deg of the vertical: 1 - u^2 < 1e-4
+    with pytest.raises(ReferenceFailure, match="of the vertical, where its precession rate loses digits"):
+        lagrange_top(b.inertia, q0, w0, np.linspace(0, 1, 11), centre=b.centre, force=b.mass * np.array(b.gravity))
+    lopsided = b.inertia + np.diag([1e-4, 0.0, 0.0])
+    assert "not symmetric about the axis through the centre of mass" in exact_why_not(lopsided, b.own_torque())
+    assert exact_why_not(b.inertia, b.own_torque()) is None and exact_why_not(b.inertia, None) is None

@@ -606,15 +606,18 @@ def entry() -> None:
     """The ``xcheck`` command (and ``python -m xcheck``): :func:`main`, then out of the process at once. When main
     returns, everything the command writes is written and its workers are stopped; the interpreter's own
     teardown (numba's, LLVM's, MuJoCo's and Basilisk's modules released one by one) took another 0.3 s, a fifth of
-    a quick ``xcheck converge``. A thread that still runs (none of xcheck's does) gets the ordinary exit."""
+    a quick ``xcheck converge``. Only a command that ran to its end leaves this way (exit 0 or 1): an interrupted
+    or refused one may have left a worker half spawned, which multiprocessing's own exit handlers end before it
+    reads a closed pipe (and prints that); so does a thread that still runs (none of xcheck's does)."""
     code = main()
+    if code not in (EXIT_OK, EXIT_CHECK_FAILED) or any(t.is_alive() and not t.daemon for t in threading.enumerate()
+                                                 if t is not threading.main_thread()):
+        sys.exit(code)
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
         except (OSError, ValueError):  # a closed pipe (xcheck list | head): nothing more to say there
             pass
-    if any(t.is_alive() and not t.daemon for t in threading.enumerate() if t is not threading.main_thread()):
-        sys.exit(code)
     os._exit(code)
 
 

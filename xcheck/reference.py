@@ -3,6 +3,9 @@
 * :func:`exact_torque_free` — the exact torque-free motion of any rigid body: the closed form
   ``R(t) = exp(t [h]x / I_t) R0 exp(-t lambda [a]x)`` for axisymmetric and spherical bodies, Jacobi elliptic
   functions for asymmetric ones with the rotation about the fixed angular momentum by Gauss-Legendre quadrature.
+* :func:`lagrange_top` — the exact motion of a heavy symmetric top (Lagrange's case): the nutation through a Jacobi
+  elliptic function, precession and spin by Gauss-Legendre quadrature; :func:`exact_reference` picks the closed form
+  a body and its torque have.
 * :func:`dop853` — scipy's DOP853 at rtol 1e-13, atol 1e-15 (torqued cases).
 * the thesis's own "fine" reference (a method at dt = 1e-4 s, seed 004 §3.3) is a scenario option, run by the
   study (:mod:`xcheck.study`) through the same runners as every method.
@@ -17,7 +20,7 @@ from . import rotations as rot
 from .body import principal_axes, validate_inertia
 from .trajectory import check_initial_state, continuous_quaternions
 
-__all__ = ["exact_torque_free", "dop853", "dop853_solution", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL",
+__all__ = ["exact_torque_free", "exact_reference", "exact_why_not", "lagrange_top", "lagrange_why_not", "dop853", "dop853_solution", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL",
            "ReferenceFailure", "solve_bounded"]
 
 #: Principal moments closer than this (relative to the largest) are treated as equal (axisymmetry).
@@ -169,6 +172,164 @@ def _cumulative_quadrature(f, t, max_panel):
     cumulative = np.concatenate([[0.0], np.cumsum(per_interval)])
     zero = np.searchsorted(knots, 0.0)
     return (cumulative - cumulative[zero])[inverse[1:]]
+
+
+# ------------------------------------------------------------------------------------------------
+# the heavy symmetric top (Lagrange's case)
+# ------------------------------------------------------------------------------------------------
+#: The top's axis must stay this far from the vertical (1 - cos theta, both turning points) for the closed form:
+#: its precession rate (a - b u)/(1 - u^2) loses digits as 1 - u^2 does.
+LAGRANGE_MIN_SIN2 = 1e-4
+
+
+def lagrange_why_not(inertia, centre, force) -> str | None:
+    """Why the motion of a body under the torque ``c x (R^T F)`` (a top: ``c`` its centre of mass from the pivot,
+    body frame; ``F = m g``, world frame) has no closed form here, or None when it does: Lagrange's top, the inertia
+    about the pivot symmetric about the axis through ``c``."""
+    I = validate_inertia(inertia)
+    c, F = np.asarray(centre, dtype=float), np.asarray(force, dtype=float)
+    if not np.any(c) or not np.any(F):
+        return "no torque: the torque-free solution applies"
+    e3 = c / np.linalg.norm(c)
+    C = e3 @ I @ e3
+    A = 0.5 * (np.trace(I) - C)
+    if np.linalg.norm(I - A * np.eye(3) - (C - A) * np.outer(e3, e3)) > EQUAL_MOMENTS_RTOL * 1e2 * np.linalg.norm(I):
+        return ("the inertia about the pivot is not symmetric about the axis through the centre of mass (Lagrange's "
+                "top): no closed form; use 'dop853'")
+    return None
+
+
+def exact_why_not(inertia, torque) -> str | None:
+    """Why a body under ``torque`` (None: torque free) has no exact reference here, or None when it has one: torque
+    free (:func:`exact_torque_free`), or Lagrange's top (:func:`lagrange_top`: a torque ``c x (R^T F)`` with ``c``
+    and ``F`` fixed, the inertia symmetric about ``c``)."""
+    if torque is None:
+        return None
+    form = torque.fixed_form() if hasattr(torque, "fixed_form") else None
+    if form is None:
+        return f"'exact' is the torque-free solution or Lagrange's top, and the torque is {torque.describe()}"
+    return lagrange_why_not(inertia, *form)
+
+
+def exact_reference(inertia, q0, omega0, t, torque=None):
+    """The exact motion under ``torque`` (see :func:`exact_why_not`): ``q`` (n, 4), ``omega`` (n, 3)."""
+    if torque is None:
+        return exact_torque_free(inertia, q0, omega0, t)
+    why = exact_why_not(inertia, torque)
+    if why is not None:
+        raise ReferenceFailure(f"the exact reference: {why}")
+    centre, force = torque.fixed_form()
+    return lagrange_top(inertia, q0, omega0, t, centre=centre, force=force)
+
+
+def lagrange_top(inertia, q0, omega0, t, *, centre, force):
+    """Exact motion of a heavy symmetric top (Lagrange's case) at times ``t``: the body turns about a fixed point
+    under the torque ``c x (R^T F)`` (``c`` the centre of mass from the pivot, body frame; ``F = m g``, world
+    frame), its inertia about the pivot ``diag(A, A, C)`` about the axis through ``c`` (:func:`lagrange_why_not`).
+
+    In 3-1-3 Euler angles of the top's axis about the upward vertical (precession psi, nutation theta, spin phi),
+    ``u = cos theta`` obeys ``u'^2 = (alpha - beta u)(1 - u^2) - (a - b u)^2`` (alpha = 2 E'/A with E' the energy
+    less the spin's, beta = 2 m g l / A, a = L_z / A, b = L_3 / A, both momenta conserved), a cubic with roots
+    u1 <= u <= u2 <= 1 <= u3, so ``u = u1 + (u2 - u1) sn^2(lam t + tau0, k)`` with ``lam = sqrt(beta (u3 - u1)) / 2``
+    and ``k^2 = (u2 - u1)/(u3 - u1)``; ``psi' = (a - b u)/(1 - u^2)`` and ``phi' = L_3/C - u psi'`` are integrated by
+    Gauss-Legendre quadrature on panels of at most a quarter of the elliptic argument. Returns ``q`` (n, 4),
+    sign-continuous, and ``omega`` (n, 3), body frame. :class:`ReferenceFailure` when the axis comes within
+    :data:`LAGRANGE_MIN_SIN2` of the vertical."""
+    I, q0, omega0, t = _inputs(inertia, q0, omega0, t)
+    why = lagrange_why_not(I, centre, force)
+    if why is not None:
+        raise ReferenceFailure(f"the exact heavy-top reference: {why}")
+    c, F = np.asarray(centre, dtype=float), np.asarray(force, dtype=float)
+    e3 = c / np.linalg.norm(c)
+    C = e3 @ I @ e3
+    A = 0.5 * (np.trace(I) - C)
+    B = _frame_with_z(e3)  # body components of the top's axes (columns), the third along c
+    G = _frame_with_z(-F / np.linalg.norm(F))  # world components of the vertical frame, its z upward
+    qB, qG = rot.dcm_to_quat(B), rot.dcm_to_quat(G)
+    qT = rot.quat_mul(rot.quat_mul(rot.quat_conj(qG), q0), qB)  # top frame -> vertical frame
+    wT = B.T @ omega0
+    psi0, theta0, phi0 = rot.quat_to_euler(qT, "313", warn=False)
+    R = rot.quat_to_dcm(qT)
+    u0 = float(np.clip(R[2, 2], -1.0, 1.0))
+    Mgl = float(np.linalg.norm(F) * np.linalg.norm(c))
+    L3 = C * wT[2]
+    Lz = float((R @ (np.array([A, A, C]) * wT))[2])
+    alpha = (A * (wT[0] ** 2 + wT[1] ** 2) + 2 * Mgl * u0) / A
+    beta, a, b = 2 * Mgl / A, Lz / A, L3 / A
+
+    def f(u):
+        return (alpha - beta * u) * (1 - u * u) - (a - b * u) ** 2
+
+    u1, u2, u3 = _top_roots(f, beta, alpha, a, b, u0)
+    if 1 - max(abs(u1), abs(u2)) ** 2 < LAGRANGE_MIN_SIN2:
+        raise ReferenceFailure(f"the exact heavy-top reference: the axis comes within {np.degrees(np.arccos(min(1.0, max(abs(u1), abs(u2))))):.3g} "
+                               f"deg of the vertical, where its precession rate loses digits; use 'dop853'")
+    lam = 0.5 * np.sqrt(beta * (u3 - u1))
+    m = (u2 - u1) / (u3 - u1) if u3 > u1 else 0.0
+    span = u2 - u1
+    if span > 1e-14:
+        s0 = np.sqrt(np.clip((u0 - u1) / span, 0.0, 1.0))
+        tau0 = float(ellipkinc(np.arcsin(s0), m))
+        theta_dot0 = wT[0] * np.cos(phi0) - wT[1] * np.sin(phi0)  # from the 3-1-3 rates
+        if theta_dot0 > 0:  # u = cos theta falling: the elliptic argument runs the other way from u0
+            tau0 = -tau0
+    else:  # steady precession: no nutation
+        tau0, span = 0.0, 0.0
+
+    def u_of(tt):
+        sn, cn, dn, _ = ellipj(lam * tt + tau0, m)
+        return u1 + span * sn * sn, 2 * span * lam * sn * cn * dn
+
+    def psi_dot(tt):
+        u = u_of(tt)[0]
+        return (a - b * u) / (1 - u * u)
+
+    def phi_dot(tt):
+        return L3 / C - u_of(tt)[0] * psi_dot(tt)
+
+    panel = _PANEL_TAU / lam if lam > 0 else np.inf
+    panel = min(panel, 0.05 * 2 * np.pi / max(abs(a) + abs(b) + abs(L3 / C), 1e-300))  # the spin's own turns
+    psi = psi0 + _cumulative_quadrature(psi_dot, t, panel)
+    phi = phi0 + _cumulative_quadrature(phi_dot, t, panel)
+    u, u_dot = u_of(t)
+    theta = np.arctan2(np.sqrt(np.maximum(0.0, 1 - u * u)), u)
+    rates = np.stack([(a - b * u) / (1 - u * u), -u_dot / np.sin(theta), L3 / C - u * (a - b * u) / (1 - u * u)],
+                     axis=-1)
+    angles = np.stack([psi, theta, phi], axis=-1)
+    q = rot.quat_mul(rot.quat_mul(qG, rot.euler_to_quat(angles, "313")), rot.quat_conj(qB))
+    omega = rot.euler_rates_to_omega(angles, rates, "313") @ B.T
+    return continuous_quaternions(q), omega
+
+
+def _frame_with_z(z) -> np.ndarray:
+    """A proper orthonormal frame (columns) whose third axis is the unit vector ``z``."""
+    helper = np.eye(3)[np.argmin(np.abs(z))]
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    return np.stack([x, np.cross(z, x), z], axis=1)
+
+
+def _top_roots(f, beta, alpha, a, b, u0):
+    """The cubic's roots u1 <= u0 <= u2 <= 1 <= u3: f(-1) and f(1) are -(a -+ b)^2 <= 0, f(u0) = u'^2 >= 0 and f
+    grows without bound (beta > 0), so its three roots, in order, are these (a double root where the nutation
+    vanishes: a complex pair there, by a hair); each polished by Newton's method on f."""
+    def fp(u):
+        return -beta * (1 - u * u) - 2 * u * (alpha - beta * u) + 2 * b * (a - b * u)
+
+    def polish(u):
+        for _ in range(8):
+            d = fp(u)
+            if d == 0 or f(u) == 0:
+                break
+            step = f(u) / d
+            u -= step
+            if abs(step) <= 1e-17:
+                break
+        return u
+
+    u1, u2, u3 = np.sort(np.roots([beta, -(alpha + b * b), 2 * a * b - beta, alpha - a * a]).real)
+    u1, u2 = min(polish(u1), u0), max(polish(u2), u0)
+    return u1, u2, max(polish(u3), 1.0)
 
 
 # ------------------------------------------------------------------------------------------------

@@ -409,8 +409,18 @@ def check_scenario_model(scenario: Scenario) -> None:
     except ValueError as exc:
         raise ScenarioError(f"{scenario.path}: [torque]: {exc}") from None
     if scenario.reference == "exact" and torque is not None:
-        raise ScenarioError(f"{scenario.path}: [study] reference: 'exact' is the torque-free solution, and the model "
-                            f"exerts a torque of its own ({torque.describe()}): use 'dop853' or 'fine'")
+        from .reference import ReferenceFailure, exact_reference, exact_why_not
+
+        inertia = body.inertia if scenario.inertia is None else body.inertia_with(scenario.inertia)
+        why = exact_why_not(inertia, torque)
+        if why is None:
+            try:  # Lagrange's top: its closed form must reach this motion (cheap: two times)
+                exact_reference(inertia, scenario.q0, scenario.omega0, [0.0, scenario.duration], torque)
+            except ReferenceFailure as exc:
+                why = str(exc)
+        if why is not None:
+            raise ScenarioError(f"{scenario.path}: [study] reference: 'exact' is the torque-free solution or Lagrange's "
+                                f"top, and the model exerts a torque of its own ({torque.describe()}): {why}")
 
 
 def _read_torque(tq: _Reader) -> dict:
@@ -535,13 +545,16 @@ def _toml_list(values) -> str:
     return "[" + ", ".join(repr(float(v)) for v in values) + "]"
 
 
-def _euler_margins(inertia, q0, omega0, duration: float) -> dict:
-    """Per Euler sequence, the smallest distance [deg] of its middle angle from the singularity over the
-    torque-free motion (the exact solution on 401 times)."""
-    from .reference import exact_torque_free
+def _euler_margins(inertia, q0, omega0, duration: float, torque=None, reference: str = "exact") -> dict:
+    """Per Euler sequence, the smallest distance [deg] of its middle angle from the singularity over the motion
+    (the exact solution, or DOP853's under a torque that has none, on 401 times)."""
+    from .reference import dop853_solution, exact_reference
 
     t = np.linspace(0.0, duration, 401)
-    q, _ = exact_torque_free(inertia, q0, omega0, t)
+    if reference == "exact":
+        q, _ = exact_reference(inertia, q0, omega0, t, torque)
+    else:
+        q, _ = dop853_solution(inertia, q0, omega0, duration, torque=torque)(t)
     out = {}
     for seq in rot.EULER_SEQUENCES:
         middle = rot.quat_to_euler(q, seq, warn=False)[:, 1]
@@ -567,12 +580,36 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
     body = state.body
     stem = model.stem + (f"-{state.keyframe}" if keyframe is not None else "")
     name = re.sub(r"[^A-Za-z0-9_.-]+|\.{2,}", "-", stem).strip("-._")[:100] or "model"  # check_name's identifier
+    from .reference import exact_why_not
+
+    own = body.own_torque()
+    why_not = exact_why_not(body.inertia, own)
+    reference = "exact" if why_not is None else "dop853"
+    margins = None
+    try:
+        margins = _euler_margins(body.inertia, state.q0, state.omega0, MODEL_DURATION, own, reference)
+    except ReferenceFailure as exc:
+        if own is None:
+            margins = exc
+        else:  # a top whose closed form does not reach this motion (its axis at the vertical): DOP853
+            reference, why_not = "dop853", str(exc)
+    except ValueError as exc:
+        margins = exc
+    if own is None:
+        torque_words = "torque free (the model declares no torque)"
+        reference_words = "reference: the exact torque-free solution (closed form)"
+    else:
+        torque_words = f"the model's own torque only: {own.describe()}"
+        reference_words = ("reference: the exact heavy symmetric top (Lagrange's, closed form)" if reference == "exact"
+                           else f"reference: DOP853 at rtol 1e-13 ({why_not})")
     assumptions = [f"initial state: {state.source}", *state.notes, *body.notes,
-                   f"duration {MODEL_DURATION:g} s (the default); torque free (the model declares no torque)",
-                   "reference: the exact torque-free solution (closed form)"]
+                   f"duration {MODEL_DURATION:g} s (the default); {torque_words}", reference_words]
     expected_to_fail, sequence = [], "323"
     try:
-        margins = _euler_margins(body.inertia, state.q0, state.omega0, MODEL_DURATION)
+        if margins is None:
+            margins = _euler_margins(body.inertia, state.q0, state.omega0, MODEL_DURATION, own, reference)
+        if isinstance(margins, Exception):
+            raise margins
     except (ReferenceFailure, ValueError) as exc:
         assumptions.append(f"euler-rk4's sequence: 323, unchecked ({exc})")
     else:
@@ -594,7 +631,7 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         "# scenario file, with its value for this model. Edit what you know better; xcheck report THIS_FILE runs it.",
         *(f"#   - {a}" for a in assumptions),
         f"name = {json.dumps(name)}",
-        f"description = {json.dumps(f'{model.name}, ' + state.source.split(':')[0] + ', torque free')}",
+        f"description = {json.dumps(f'{model.name}, ' + state.source.split(':')[0] + (', torque free' if own is None else ', a top under gravity'))}",
         f"model = {json.dumps(ref)}   # the MJCF file (relative to this file)",
         f"duration = {MODEL_DURATION!r}   # [s]",
         "",
@@ -611,7 +648,8 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         "# docs/scenarios.md); with a torque, the reference is \"dop853\".",
         "",
         "[study]",
-        "reference = \"exact\"   # torque free: the closed-form solution; else \"dop853\" or \"fine\"",
+        f"reference = \"{reference}\"   # \"exact\": the closed form (torque free, or Lagrange's top); else \"dop853\" "
+        "or \"fine\"",
         f"steps = {_toml_list(steps)}   # [s], the full study",
         f"quick_steps = {_toml_list(quick)}   # [s], --quick",
         f"tolerances = {_toml_list(DEFAULT_TOLERANCES)}   # an adaptive method's ladder (relative tolerances)",

@@ -77,6 +77,10 @@ class TorqueModel:
         along it is conserved; None when there is none."""
         return None
 
+    def fixed_form(self):
+        """``(c, F)`` when the torque is ``c x (R^T F)`` with both fixed (see :class:`MagneticTorque`); None."""
+        return None
+
     def describe(self) -> str:
         return type(self).__name__
 
@@ -125,6 +129,13 @@ class MagneticTorque(TorqueModel):
         if H is None:
             return None
         return -kernel.MU0 * (quat_rotate(q, self.dipole) @ H)
+
+    def fixed_form(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(c, F)`` when the torque is ``c x (R^T F)`` with both fixed (a dipole in a field fixed in the world:
+        ``c = M_p``, ``F = mu0 H``; a top's gravity: ``c`` its centre of mass from the pivot, ``F = m g``), the form
+        of Lagrange's top (:func:`xcheck.reference.lagrange_top`); None otherwise."""
+        H = self._fixed_world_field()
+        return None if H is None else (self.dipole.copy(), kernel.MU0 * H)
 
     def momentum_axis(self) -> np.ndarray | None:
         """A dipole in a field fixed in the world: the field's direction (the torque ``R (M_p x R^T H)`` is

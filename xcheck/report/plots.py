@@ -57,9 +57,13 @@ def render_figures(data: dict, series: dict, *, quick: bool = False) -> list[tup
                              "have one). It shrinks at the lower of the two orders until round-off."))
         if series:
             torque_free = data.get("torque") is None
+            potential = "T + V" in next(iter(series.values())).get("energy_label", "")
             figs.append(png_of(_errors_in_time(series, colors, torque_free), f"{name}-error.png",
                              "Attitude error against time for the finest step of each method" +
-                             ("; below it the relative drift of kinetic energy and of world angular momentum "
+                             ("; below it the relative drift of the energy with its potential (T + V) and of the "
+                              "angular momentum about the vertical, which the model's own torque (gravity about "
+                              "the pivot) conserves." if torque_free and potential else
+                              "; below it the relative drift of kinetic energy and of world angular momentum "
                               "(torque free: both are conserved)." if torque_free else ".")))
             if quick:  # a fast look: the time histories of the seeds are in the full report
                 return figs
@@ -299,9 +303,10 @@ def _errors_in_time(series, colors, torque_free: bool):
             axes[1].semilogy(s["t"], np.maximum(np.abs(s["energy_drift"]), 1e-18), lw=1, color=colors.get(name))
             axes[2].semilogy(s["t"], np.maximum(s["momentum_drift"], 1e-18), lw=1, color=colors.get(name))
     axes[0].set_ylabel("attitude error [rad]")
-    if torque_free:
-        axes[1].set_ylabel("|E/E0 - 1|")
-        axes[2].set_ylabel("|H - H0| / |H0|")
+    if torque_free:  # what is conserved: a top's energy has its potential, its momentum is the vertical's
+        first = next(iter(series.values()), {})
+        axes[1].set_ylabel(first.get("energy_label", "|E/E0 - 1|"))
+        axes[2].set_ylabel(first.get("momentum_label", "|H - H0| / |H0|"))
     axes[-1].set_xlabel("t [s]")
     axes[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     return fig

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..reference import ReferenceFailure, dop853_solution, exact_torque_free
+from ..reference import ReferenceFailure, dop853_solution, exact_reference
 from ..runners import RUNNERS, RunContext
 from ..scenario import Scenario, build_torque
 
@@ -59,7 +59,7 @@ class _Reference:
         self.scenario, self.ctx = scenario, ctx
         self._grids = []
         if self.kind == "exact":  # fails early when the body turns too fast for the quadrature
-            exact_torque_free(ctx.inertia, ctx.q0, ctx.omega0, np.array([0.0, ctx.duration]))
+            exact_reference(ctx.inertia, ctx.q0, ctx.omega0, np.array([0.0, ctx.duration]), ctx.torque)
         elif self.kind == "dop853":
             self.dense = dop853_solution(ctx.inertia, ctx.q0, ctx.omega0, ctx.duration, torque=ctx.torque)
         elif self.kind == "fine":
@@ -82,7 +82,7 @@ class _Reference:
 
     def _at(self, t):
         if self.kind == "exact":
-            q, w = exact_torque_free(self.ctx.inertia, self.ctx.q0, self.ctx.omega0, t)
+            q, w = exact_reference(self.ctx.inertia, self.ctx.q0, self.ctx.omega0, t, self.ctx.torque)
             return q, w, np.ones(len(t), bool)
         if self.kind == "dop853":
             q, w = self.dense(t)

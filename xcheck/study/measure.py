@@ -223,12 +223,16 @@ def _sample(finest, ref, ctx):
     if V is not None:  # what the torque conserves (see metrics.conserved_drift)
         scale = abs(E[0]) + abs(V[0])
         out["energy_drift"] = (E + V - E[0] - V[0]) / scale if scale > 0 else np.zeros_like(E)
+        out["energy_label"] = "|ΔE| / (|T0| + |V0|), E = T + V"
     else:
         out["energy_drift"] = E / E[0] - 1 if E[0] > 0 else np.zeros_like(E)
+        out["energy_label"] = "|E/E0 - 1|"
     if axis is not None:
         out["momentum_drift"] = np.abs((H - H[0]) @ axis) / max(np.linalg.norm(H[0]), 1e-300)
+        out["momentum_label"] = "|ΔH · axis| / |H0|"
     else:
         out["momentum_drift"] = np.linalg.norm(H - H[0], axis=1) / max(np.linalg.norm(H[0]), 1e-300)
+        out["momentum_label"] = "|H - H0| / |H0|"
     if "euler" in traj.extras:
         out["euler"] = traj.extras["euler"][idx]
     if ctx.torque is not None:
