@@ -228,3 +228,52 @@ def test_the_lagrange_top_refuses_what_it_cannot_do():
     lopsided = b.inertia + np.diag([1e-4, 0.0, 0.0])
     assert "not symmetric about the axis through the centre of mass" in exact_why_not(lopsided, b.own_torque())
     assert exact_why_not(b.inertia, b.own_torque()) is None and exact_why_not(b.inertia, None) is None
+
+
+def test_the_cubesat_built_from_parts_is_its_parts_by_hand():
+    """models/cubesat_parts.xml: the bus, two panels at y = +-0.2 m and the antenna at x = 0.3 m, each its own
+    solid about its centre; the composite by the parallel-axis theorem written out, about the composite's centre of
+    mass; and MuJoCo's four bodies against lie-rkmk4 on the composite, in the orbit field: the same scheme."""
+    b = load_body(BUNDLED_MODELS / "cubesat_parts.xml")
+    parts = [  # mass, centre [m], own principal moments [kg m^2]
+        (3.4, [0, 0, 0], [3.4 / 12 * (0.01 + 0.1156), 3.4 / 12 * (0.01 + 0.1156), 3.4 / 12 * 0.02]),
+        (0.15, [0, 0.2, 0], [0.002570, 0.00144505, 0.00112505]),
+        (0.15, [0, -0.2, 0], [0.002570, 0.00144505, 0.00112505]),
+        (0.02, [0.3, 0, 0], [1e-08, 0.0004166716666666667, 0.0004166716666666667]),
+    ]
+    mass = sum(m for m, _, _ in parts)
+    com = sum(m * np.array(c, float) for m, c, _ in parts) / mass
+    inertia = sum(np.diag(J) + m * ((d := np.array(c, float) - com) @ d * np.eye(3) - np.outer(d, d))
+                  for m, c, J in parts)
+    assert b.mass == pytest.approx(mass, rel=1e-15) and b.joint == "free"
+    np.testing.assert_allclose(b.inertia, inertia, rtol=1e-13, atol=1e-18)
+    sc = resolve_scenario("cubesat-parts-orbit-field")
+    ctx = run_context(sc)
+    a, o = RUNNERS["mujoco-rk4"].run(ctx, 1 / 64), RUNNERS["lie-rkmk4"].run(ctx, 1 / 64)
+    assert np.max(rot.attitude_error(a.q, o.q)) < 1e-12
+
+
+def test_simo_and_wongs_heavy_symmetrical_top():
+    """The heavy top of Simo & Wong, 'Unconditionally stable algorithms for rigid body dynamics that exactly preserve
+    energy and momentum', Int. J. Numer. Methods Eng. 31 (1991) 19-52, as its parameters are printed: inertia about
+    the fixed point J = diag(5, 5, 1), M g l = 20 (M = 20, g = 1, l = 1), Lambda(0) = exp([0.05, 0, 0]^), W(0) =
+    [0, 0, 50] rad/s; so its Hamiltonian is 1/2 W.JW + M g l cos(0.05) = 1269.97500520790. Over their [0, 10] s,
+    Lagrange's closed form keeps that Hamiltonian to 1e-13 and agrees with DOP853 to 1e-10 rad. (Their top is no
+    MJCF body: its inertia about the centre of mass would be diag(-15, -15, 1).) The rotation a step that paper
+    quotes, about 26 deg at h = 0.009 s and 3 deg at h = 0.001 s, is |W| h: 25.8 and 2.86 deg."""
+    from xcheck.fields import GravityTorque
+    from xcheck.reference import dop853_solution, lagrange_top
+    from xcheck.trajectory import Trajectory
+
+    J, q0, w0 = np.diag([5.0, 5.0, 1.0]), rot.rotvec_to_quat([0.05, 0.0, 0.0]), np.array([0.0, 0.0, 50.0])
+    torque = GravityTorque([0.0, 0.0, 1.0], 20.0, [0.0, 0.0, -1.0])
+    t = np.linspace(0.0, 10.0, 4001)
+    q, w = lagrange_top(J, q0, w0, t, centre=[0.0, 0.0, 1.0], force=[0.0, 0.0, -20.0])
+    H = 0.5 * np.einsum("ni,ij,nj->n", w, J, w) + torque.potential(q)
+    assert H[0] == pytest.approx(1250.0 + 20.0 * np.cos(0.05), rel=1e-15)
+    assert 1250.0 + 20.0 * np.cos(0.05) == pytest.approx(1269.97500520790, abs=1e-10)
+    assert np.max(np.abs(H - H[0])) / H[0] < 1e-13
+    assert conserved_drift(J, Trajectory(t=t, q=q, omega=w), torque)["momentum_drift"] < 1e-13
+    qr, _ = dop853_solution(J, q0, w0, 10.0, torque=torque)(t)
+    assert np.max(rot.attitude_error(q, qr)) < 1e-10
+    assert np.degrees(50.0 * 0.009) == pytest.approx(26.0, abs=0.5) and np.degrees(50.0 * 0.001) == pytest.approx(3.0, abs=0.2)

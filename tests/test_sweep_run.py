@@ -400,11 +400,14 @@ def test_a_read_only_sweep_folder_is_named(tmp_path):
 
 
 def test_bundled_sweeps_are_valid():
-    """The three example sweeps parse, with the cells the issue asks for."""
+    """The example sweeps parse, with the cells their issues ask for."""
     from xcheck.paths import BUNDLED_MODELS
 
     specs = {p.stem: S.load_sweep(p) for p in sorted((BUNDLED_MODELS / "sweeps").glob("*.toml"))}
-    assert set(specs) == {"rax1-dipole-inertia", "gyroscope-spin-dt", "model-swap"}
+    assert set(specs) == {"rax1-dipole-inertia", "gyroscope-spin-dt", "model-swap", "heavy-top-nutation-dt"}
+    top = specs["heavy-top-nutation-dt"]  # issue 27: the nutation angle x step on the ball joint
+    angles = sorted(2 * np.degrees(np.arccos(c["params"]["attitude"][0])) for c in top.cells)
+    np.testing.assert_allclose(angles, [1, 5, 15, 30, 60, 90], atol=1e-9)
     assert len(specs["rax1-dipole-inertia"].cells) == 100
     assert specs["gyroscope-spin-dt"].methods == ["mujoco-rk4", "mujoco-euler", "mujoco-implicit",
                                                   "mujoco-implicitfast"]
@@ -418,6 +421,7 @@ def test_a_bundled_sweep_runs_by_name(tmp_path, capsys):
     assert main(["list"]) == 0
     assert "gyroscope-spin-dt" in capsys.readouterr().out
     assert main(["sweep", "no-such-sweep", "--out", str(tmp_path)]) == 2
-    assert "not a bundled sweep (gyroscope-spin-dt, model-swap, rax1-dipole-inertia)" in capsys.readouterr().err
+    assert ("not a bundled sweep (gyroscope-spin-dt, heavy-top-nutation-dt, model-swap, rax1-dipole-inertia)"
+            in capsys.readouterr().err)
     spec = S.resolve_sweep("gyroscope-spin-dt")
     assert spec.path.name == "gyroscope-spin-dt.toml" and len(spec.cells) == 8

@@ -273,7 +273,7 @@ def _write_csvs(st, folder: Path):
 # ------------------------------------------------------------------------------------------------
 # the report as one document (xcheck.report.document), written as Markdown and as HTML
 # ------------------------------------------------------------------------------------------------
-LEGEND = [("Each cell: the observed order p and the attitude error [rad] at the finest step. ", None),
+LEGEND = [("Each cell: the observed order · the attitude error [rad] at the finest step. ", None),
           ("pass", "mark"), (" every check passed; ", None), ("fail", "mark"), (" a check failed; ", None),
           ("expected", "mark"), (" a failure the scenario expects (Euler angles at gimbal lock); ", None),
           ("info", "mark"), (" reported without checks.", None)]
@@ -405,7 +405,7 @@ def _front_cell(st, name) -> Cell:
     if m is None:
         return Cell()
     finest = m.finest
-    text = f"p={m.observed_order:.2f}" if m.observed_order is not None else (m.status if m.status != "ok" else "p=—")
+    text = f"{m.observed_order:.2f}" if m.observed_order is not None else (m.status if m.status != "ok" else "—")
     return Cell(f"{text} · {fmt(finest.attitude_error if finest else None, '.1e')}", m.verdict)
 
 
