@@ -1,1 +1,1 @@
-"""Reports: results as JSON, Markdown and a self-contained HTML page with plots (matplotlib, Agg)."""
+"""Reports: results as JSON, Markdown and an HTML page with its plots beside it (matplotlib, Agg)."""

@@ -1,5 +1,5 @@
 """One report model, two emitters: the report is a list of blocks (headings, paragraphs, tables, figures), built
-once (:mod:`xcheck.report.render`) and written as Markdown (:func:`to_markdown`) and as self-contained HTML
+once (:mod:`xcheck.report.render`) and written as Markdown (:func:`to_markdown`) and as HTML
 (:func:`to_html`). Both emit every block, so the two cannot drift apart.
 
 Cells and badges carry a verdict class (``pass``, ``fail``, ``expected``, ``info``): a colour in HTML, a mark in
@@ -9,7 +9,6 @@ Markdown. Inline text is a string or a list of spans ``(text, style)`` with styl
 
 from __future__ import annotations
 
-import base64
 import html
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -147,7 +146,7 @@ def _chip(cls: str) -> str:
 
 
 def to_html(blocks, plot_dir: Path, *, title: str) -> str:
-    """Self-contained HTML: the figures are read from ``plot_dir`` and embedded."""
+    """HTML beside its figures: each ``<img>`` links its PNG in ``plot_dir``, a folder next to the page."""
     parts = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>", f"<title>{_e(title)}</title>",
              f"<style>{_CSS}</style></head><body>"]
     for b in blocks:
@@ -183,9 +182,11 @@ def to_html(blocks, plot_dir: Path, *, title: str) -> str:
             parts.append("<nav class='contents'><b>Contents</b><ul>" + "".join(
                 f"<li>{_chip(cls)}<a href='#{_e(anchor)}'>{_e(text)}</a></li>" for text, anchor, cls in b.entries)
                 + "</ul></nav>")
-        elif isinstance(b, Figure):
-            data = base64.b64encode((Path(plot_dir) / b.file).read_bytes()).decode("ascii")
-            parts.append(f"<figure><img alt='{_e(b.caption)}' src='data:image/png;base64,{data}'>"
+        elif isinstance(b, Figure):  # the folder's own PNG, beside the page (embedded, every image was there twice)
+            if not (Path(plot_dir) / b.file).is_file():
+                raise FileNotFoundError(f"{Path(plot_dir) / b.file}: a figure of the report is missing")
+            src = f"{Path(plot_dir).name}/{b.file}"
+            parts.append(f"<figure><img alt='{_e(b.caption)}' src='{_e(src)}'>"
                          f"<figcaption>{_e(b.caption)}</figcaption></figure>")
         else:
             raise TypeError(f"not a report block: {b!r}")

@@ -1,4 +1,4 @@
-"""The report folder: ``results.json``, ``report.md``, a self-contained ``index.html`` (plots embedded),
+"""The report folder: ``results.json``, ``report.md``, an ``index.html`` (its plots linked from ``plots/``),
 the figures as PNG and, when asked for (``--trajectories``), the finest runs' trajectories as CSV. Written into a hidden temporary folder and
 renamed into place only when complete; ``latest`` then points at it."""
 

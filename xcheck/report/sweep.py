@@ -2,7 +2,7 @@
 
 ``<out>/<spec stem>/<stamp>/``: ``results.csv`` (one row per cell x method x step), ``sweep.sqlite`` (the
 nightly history's schema, cells' parameters in ``sweep_cells``), ``cells.jsonl`` (every cell's record: what
-``--resume`` reads), ``sweep.json`` (the spec, versions, timings), ``plots/*.png`` and a self-contained
+``--resume`` reads), ``sweep.json`` (the spec, versions, timings), ``plots/*.png`` and an
 ``index.html``. Written into a hidden folder and renamed into place when complete; ``latest`` points at it.
 """
 
