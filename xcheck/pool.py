@@ -128,7 +128,11 @@ def _start_workers(pool: ProcessPoolExecutor, modules=()) -> None:
     so the kernel could hand the signal to one of them while it was ignored, or Python could find it pending
     while its handler was SIG_IGN."""
     if sys.platform.startswith("linux"):
-        with spawned_with_sigint_blocked():
+        # and the interrupt that came meanwhile raised once every worker is spawned and known to the pool: raised
+        # inside a spawn (after the fork, before the parent wrote the child its start-up data, or registered it),
+        # it left a worker that stop_pool could not see, and that printed a traceback (EOFError, or
+        # FileNotFoundError for a semaphore gone) as it started after this process had ended (seen in the suite)
+        with interrupts_deferred(), spawned_with_sigint_blocked():
             pool.starting = [pool.submit(_import, modules) for _ in range(pool._max_workers)]
         return
     main_thread = threading.current_thread() is threading.main_thread()
@@ -143,8 +147,8 @@ def _start_workers(pool: ProcessPoolExecutor, modules=()) -> None:
 @contextmanager
 def interrupts_deferred():
     """Ctrl-C and SIGTERM held for the length of a block that must not be cut in the middle (a Dask cluster half
-    built fails its own close at exit): one that comes meanwhile is recorded, and delivered (its handler called:
-    the interrupt raised) as the block ends. Main thread only; elsewhere nothing changes."""
+    built fails its own close at exit): those that come meanwhile are recorded, and delivered (their handler
+    called: the interrupt raised) as the block ends. Main thread only; elsewhere nothing changes."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -156,8 +160,9 @@ def interrupts_deferred():
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
-        if held and callable(previous[held[0]]):
-            previous[held[0]](held[0], None)
+        for signum in held:  # each, in order (a handler that raises, as Ctrl-C's does, ends the replay there)
+            if callable(previous[signum]):
+                previous[signum](signum, None)
 
 
 @contextmanager
