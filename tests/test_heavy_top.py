@@ -74,7 +74,7 @@ def test_a_ball_joints_reference_orientation_and_pivot_reach_mujocos_run(tmp_pat
 
     q0 = rot.quat_normalize([0.9, 0.2, -0.3, 0.1])
     ctx = RunContext(inertia=b.inertia, model_path=str(path), q0=q0, omega0=np.array([0.5, -1.0, 8.0]), duration=2.0,
-                     torque=b.own_torque(), own_torque=True)
+                     torque=b.own_torque(), engine_torque=None)
     mj = RUNNERS["mujoco-rk4"].run(ctx, 1 / 512)
     ours = RUNNERS["lie-rkmk4"].run(ctx, 1 / 512)
     assert rot.attitude_error(mj.q[0], q0) < 1e-15 and np.array_equal(mj.omega[0], ctx.omega0)
@@ -147,9 +147,11 @@ def test_refusals_name_the_file_and_the_reason(tmp_path):
     with pytest.raises(ScenarioError, match="'exact' is the torque-free solution or Lagrange's top, and the model "
                                             "exerts a torque of its own \\(gravity.*within 0 deg of the vertical"):
         resolve_scenario(str(scenario))
+    # a [torque] beside the model's gravity composes (a magnetised top: test_a_magnetised_top_composes_...)
     scenario.write_text(base + '[torque]\nkind = "constant"\ntorque = [0, 0, 1e-3]\n[study]\nreference = "dop853"\n')
-    with pytest.raises(ScenarioError, match="torques that compose are not supported yet"):
-        resolve_scenario(str(scenario))
+    from xcheck.fields import SumTorque
+
+    assert isinstance(run_context(resolve_scenario(str(scenario))).torque, SumTorque)
 
 
 # ------------------------------------------------------------------------------------------------------
@@ -277,3 +279,64 @@ def test_simo_and_wongs_heavy_symmetrical_top():
     qr, _ = dop853_solution(J, q0, w0, 10.0, torque=torque)(t)
     assert np.max(rot.attitude_error(q, qr)) < 1e-10
     assert np.degrees(50.0 * 0.009) == pytest.approx(26.0, abs=0.5) and np.degrees(50.0 * 0.001) == pytest.approx(3.0, abs=0.2)
+
+
+
+# ------------------------------------------------------------------------------------------------------
+# torques that compose
+# ------------------------------------------------------------------------------------------------------
+def test_a_sum_of_torques_is_its_terms_added():
+    """Two constant torques summed run bit for bit as the one constant torque that is their sum (the kernel adds the
+    terms from zero, in order); a sum's P names each term's kind and slice; refusals named."""
+    from xcheck.fields import ConstantTorque, MagneticTorque, SumTorque, UniformField
+    from xcheck.fields.models import BodyFieldTable
+    from xcheck.runners import RunContext
+
+    a, b = ConstantTorque([1e-3, 0.0, 2e-3]), ConstantTorque([0.0, -1e-3, 5e-4])
+    both = SumTorque([a, b])
+    np.testing.assert_array_equal(both.P[:7], [2, 1, 7, 3, 1, 10, 3])
+    kw = dict(inertia=np.diag([1.0, 2.0, 3.0]), model_path="", q0=np.array([1.0, 0, 0, 0]),
+              omega0=np.array([0.1, 1.0, 0.2]), duration=5.0)
+    one = ConstantTorque([1e-3, -1e-3, 2.5e-3])
+    for method in ("lie-rkmk4", "formulation-2", "euler-rk4"):
+        x = RUNNERS[method].run(RunContext(torque=both, **kw), 1 / 64)
+        y = RUNNERS[method].run(RunContext(torque=one, **kw), 1 / 64)
+        assert np.array_equal(x.q, y.q) and np.array_equal(x.omega, y.omega), method
+    assert SumTorque([both, a]).terms == [a, b, a]  # a sum of sums is flat
+    with pytest.raises(ValueError, match="a sum needs two torques or more"):
+        SumTorque([a])
+    table = np.array([[0.0, 1.0, 0.0, 0.0], [10.0, 1.0, 0.0, 0.0]])
+    tabled = [MagneticTorque([1.0, 0, 0], BodyFieldTable(table, source="t")) for _ in range(2)]
+    with pytest.raises(ValueError, match="2 of them read a table"):
+        SumTorque(tabled)
+    field = MagneticTorque([0.0, 0.0, 0.5], UniformField([2e4, 0.0, 0.0]))
+    assert SumTorque([a, field]).potential(np.array([[1.0, 0, 0, 0]])) is None  # a constant torque has none
+    assert SumTorque([a, field]).momentum_axis() is None
+
+
+def test_a_magnetised_top_composes_gravity_and_its_field_in_every_engine():
+    """The bundled top with a dipole of 0.5 A m^2 along its axis in a horizontal uniform field: gravity's torque
+    (the model's, MuJoCo's own) plus the field's (applied). Truth: DOP853 on the sum. MuJoCo's RK4 (gravity its
+    own, the field through the control callback at the world attitude of the ball joint) is lie-rkmk4 to round-off,
+    Basilisk's (two MtbEffectors: two uniform fields) mrp-rk4; what the sum conserves: the energy with both
+    potentials (no common axis: no momentum)."""
+    from xcheck.fields import MagneticTorque, SumTorque, UniformField
+    from xcheck.reference import dop853_solution
+    from xcheck.runners import RunContext
+
+    b = load_body(TOP)
+    field = MagneticTorque([0.0, 0.0, 0.5], UniformField([2e4, 0.0, 0.0]))
+    torque = SumTorque([b.own_torque(), field])
+    q0, w0 = rot.euler_to_quat(np.radians([0.0, 15.0, 0.0]), "323"), np.array([0.0, 0.0, 15.71])
+    ctx = RunContext(inertia=b.inertia, model_path=str(TOP), q0=q0, omega0=w0, duration=3.0, torque=torque,
+                     engine_torque=field)
+    ref = dop853_solution(b.inertia, q0, w0, 3.0, torque=torque)
+    runs = {m: RUNNERS[m].run(ctx, 1 / 512) for m in ("lie-rkmk4", "mujoco-rk4", "mrp-rk4")}
+    for m, r in runs.items():
+        assert np.max(rot.attitude_error(r.q, ref(r.t)[0])) < 1e-7, m
+    assert np.max(rot.attitude_error(runs["mujoco-rk4"].q, runs["lie-rkmk4"].q)) < 1e-12
+    drift = conserved_drift(b.inertia, runs["lie-rkmk4"], torque)
+    assert drift["energy_drift"] < 1e-10 and drift["momentum_drift"] is None
+    if "basilisk-rk4" in RUNNERS:
+        basilisk = RUNNERS["basilisk-rk4"].run(ctx, 1 / 512)
+        assert np.max(rot.attitude_error(basilisk.q, runs["mrp-rk4"].q)) < 1e-11

@@ -29,9 +29,14 @@ class RunContext:
     torque: object = None
     sequence: str = "323"
     model_moments: tuple | None = None
-    #: ``torque`` is the model's own (a top's gravity about its pivot): an engine that simulates the MJCF exerts
-    #: it itself, and applies nothing more
-    own_torque: bool = False
+    #: what an engine that simulates the MJCF applies: ``torque`` less the model's own (a top's gravity about its
+    #: pivot, which such an engine exerts itself); "same": ``torque``
+    engine_torque: object = "same"
+
+    @property
+    def applied(self):
+        """The torque an engine simulating the MJCF applies (see :attr:`engine_torque`)."""
+        return self.torque if isinstance(self.engine_torque, str) else self.engine_torque
 
 
 @dataclass(frozen=True)
@@ -96,7 +101,7 @@ def _mujoco(integrator):
         from .engines.mujoco import simulate
 
         return simulate(ctx.model_path, integrator=integrator, q0=ctx.q0, omega0=ctx.omega0, dt=dt,
-                        duration=ctx.duration, torque=None if ctx.own_torque else ctx.torque,
+                        duration=ctx.duration, torque=ctx.applied,
                         inertia_moments=ctx.model_moments)
     return run
 

@@ -460,12 +460,14 @@ MAX_DIPOLE = 1e4
 
 def build_torque(scenario: Scenario, body):
     """The :class:`~xcheck.fields.TorqueModel` on the body of a scenario (None when torque free): the scenario's
-    ``[torque]``, or the one the model exerts itself (a top's gravity about its pivot, ``body.own_torque()``)."""
+    ``[torque]``, the one the model exerts itself (a top's gravity about its pivot, ``body.own_torque()``), or
+    both, summed (:class:`~xcheck.fields.SumTorque`)."""
     own = body.own_torque() if hasattr(body, "own_torque") else None
     applied = _applied_torque(scenario, body)
-    if own is not None and applied is not None:
-        raise ValueError(f"{body.path}: a top on a ball joint under gravity with a [torque] of its own: torques that "
-                         "compose are not supported yet; leave out the [torque] (or the model's gravity)")
+    if own is not None and applied is not None:  # a magnetised top in a field: both, summed at every stage
+        from .fields import SumTorque
+
+        return SumTorque([own, applied])
     return own if own is not None else applied
 
 

@@ -52,7 +52,7 @@ import numpy as np
 
 from .. import rotations as rot
 from ..fields.kernel import MU0
-from ..fields.models import ConstantTorque, MagneticTorque
+from ..fields.models import ConstantTorque, MagneticTorque, SumTorque
 from ..trajectory import (
     Trajectory,
     check_initial_state,
@@ -276,6 +276,10 @@ def _torque_input(torque, sc, sim, b, ns: int, n: int):
     order its holding leaves (None: nothing held)."""
     if torque is None:
         return "none (torque free)", None
+    if isinstance(torque, SumTorque):  # each term through its own effector; the order the lowest they leave
+        inputs = [_torque_input(term, sc, sim, b, ns, n) for term in torque.terms]
+        orders = [order for _, order in inputs if order is not None]
+        return " + ".join(note for note, _ in inputs), (min(orders) if orders else None)
     if isinstance(torque, ConstantTorque):
         ext = _ext_torque(sc, sim, b)
         ext.extTorquePntB_B = [[float(x)] for x in torque.P]

@@ -217,20 +217,24 @@ def _stepped(m, d, n, last_h, body, torque, torque_mode):
     """The torque applied in the control callback, at every stage, through ``rollout`` (its C loop of
     ``mj_step`` on this very ``d``, whose buffers the callback reads and writes: 3.4x the steps per second of a
     Python loop, the same numbers); or held, written before each ``mj_step`` of a Python loop."""
-    if body.joint != "free":  # a torque model reads the world attitude; a ball joint's qpos is relative
-        raise ValueError(f"torque: a torque applied to a body on a {body.joint} joint is not supported yet (its "
-                         "gravity is MuJoCo's own)")
     # views into MjData's fixed buffers, made once
-    q_view = d.qpos[body.quat_slice]
     w_view = d.qvel[body.rate_slice]
     tau_view = d.qfrc_applied[body.rate_slice]
+    if body.joint == "free":  # the joint's quaternion is the world attitude a torque model reads
+        q_view = d.qpos[body.quat_slice]
+    else:  # a ball joint's is relative to the body's reference orientation: the world attitude made at every call
+        joint_q, reference, q_view = d.qpos[body.quat_slice], np.asarray(body.reference_quat, float), np.empty(4)
     if isinstance(torque, TorqueModel):
         kind, P, T = torque.kernel_data()
 
         def body_torque(t, out):
+            if body.joint != "free":
+                q_view[:] = rot.quat_mul(reference, joint_q)
             torque_eval(kind, P, T, t, q_view, w_view, out)
     else:
         def body_torque(t, out):
+            if body.joint != "free":
+                q_view[:] = rot.quat_mul(reference, joint_q)
             out[:] = np.asarray(torque(t, q_view / np.linalg.norm(q_view), w_view.copy()), dtype=float)
 
     if torque_mode == "callback":

@@ -38,6 +38,7 @@ from .models import (
                      GravityTorque,
                      Key,
                      MagneticTorque,
+                     SumTorque,
                      TorqueModel,
                      UniformField,
                      WorldFieldTable,
@@ -55,6 +56,7 @@ from .tables import load_field_table, write_field_table
 
 __all__ = [
     "MU0", "FIELDS", "Field", "Key", "TorqueModel", "ConstantTorque", "MagneticTorque", "GravityTorque",
+    "SumTorque",
     "BodyFieldTable",
     "WorldFieldTable", "UniformField", "OrbitDipoleField", "IGRFField", "torque_eval", "torque_needs_attitude",
     "magnetic_torque", "load_field_table", "write_field_table", "orbit_position", "RAX1_ORBIT",

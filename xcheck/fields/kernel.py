@@ -1,6 +1,7 @@
 """The compiled torque kernel: every torque model evaluated from plain arrays, without a Python call per stage.
 
-A torque model is an integer *kind* (:data:`FREE`, :data:`CONSTANT`, :data:`MAGNETIC`), a parameter vector ``P``
+A torque model is an integer *kind* (:data:`FREE`, :data:`CONSTANT`, :data:`MAGNETIC`, :data:`SUM` of those), a
+parameter vector ``P``
 and a table ``T`` (2-D, empty when unused). ``P`` is read by named slot:
 
 ==============  ==========================================================================================
@@ -33,6 +34,7 @@ MU0 = 4e-7 * np.pi
 FREE = 0
 CONSTANT = 1
 MAGNETIC = 2
+SUM = 3  # torques that compose: P = [n, (kind, start, length) per term, then each term's own P]; T the one table
 
 # slots of P
 VECTOR = 0
@@ -135,6 +137,25 @@ def magnetic_torque(P, T, t, q, out):
     out[2] = MU0 * (mx * hy - my * hx)
 
 
+@njit(cache=True, error_model="numpy", _nrt=False)
+def sum_torque(P, T, t, q, out):
+    """The SUM model's torque [N m]: its terms (CONSTANT or MAGNETIC, each with its own slice of ``P``) evaluated one
+    after the other and added, in the order given (a call of its own, as :func:`magnetic_torque`)."""
+    sx = sy = sz = 0.0
+    for i in range(int(P[0])):
+        kind, start, length = int(P[1 + 3 * i]), int(P[2 + 3 * i]), int(P[3 + 3 * i])
+        if kind == CONSTANT:
+            out[0], out[1], out[2] = P[start], P[start + 1], P[start + 2]
+        elif kind == MAGNETIC:
+            magnetic_torque(P[start:start + length], T, t, q, out)
+        else:
+            out[0] = out[1] = out[2] = 0.0
+        sx += out[0]
+        sy += out[1]
+        sz += out[2]
+    out[0], out[1], out[2] = sx, sy, sz
+
+
 @njit(cache=True, error_model="numpy", inline="always")
 def torque_eval(kind, P, T, t, q, w, out):
     """Body-frame torque [N m] of the model ``(kind, P, T)`` at time ``t`` [s], attitude ``q`` [w, x, y, z]
@@ -148,8 +169,10 @@ def torque_eval(kind, P, T, t, q, w, out):
         out[0] = P[VECTOR]
         out[1] = P[VECTOR + 1]
         out[2] = P[VECTOR + 2]
-    else:  # MAGNETIC
+    elif kind == MAGNETIC:
         magnetic_torque(P, T, t, q, out)
+    else:  # SUM
+        sum_torque(P, T, t, q, out)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -157,7 +180,13 @@ def torque_needs_attitude(kind, P):
     """Whether the model's torque depends on the attitude (kernels skip computing it otherwise): the field is
     given in world components. (The same answer as the Python side's ``attitude_dependent``: both read the
     field's declared frame.)"""
-    return kind == MAGNETIC and P[FRAME] == WORLD
+    if kind == MAGNETIC:
+        return P[FRAME] == WORLD
+    if kind == SUM:
+        for i in range(int(P[0])):
+            if int(P[1 + 3 * i]) == MAGNETIC and P[int(P[2 + 3 * i]) + FRAME] == WORLD:
+                return True
+    return False
 
 
 @njit(cache=True, error_model="numpy")

@@ -169,6 +169,58 @@ class GravityTorque(MagneticTorque):
                 "from the pivot")
 
 
+class SumTorque(TorqueModel):
+    """Torques that compose (issues 27, 28): the sum of its terms — constant torques and dipoles in fields (a top's
+    gravity is one) — evaluated term by term at every stage in compiled code (:data:`kernel.SUM`), in the order given.
+    At most one term may carry a table (they share ``T``). What it conserves is what every term conserves: a
+    potential when each has one (their sum), a momentum axis when each has the same."""
+
+    kind = kernel.SUM
+
+    def __init__(self, terms):
+        flat = []
+        for term in terms:
+            flat += term.terms if isinstance(term, SumTorque) else [term]
+        if len(flat) < 2:
+            raise ValueError(f"terms: a sum needs two torques or more, got {len(flat)}")
+        for term in flat:
+            if term.kind not in (kernel.CONSTANT, kernel.MAGNETIC):
+                raise ValueError(f"terms: a sum adds constant and magnetic torques, got {type(term).__name__}")
+        tables = [term for term in flat if term.T.size]
+        if len(tables) > 1:
+            raise ValueError(f"terms: {len(tables)} of them read a table ({', '.join(t.describe() for t in tables)}); "
+                             "a sum takes at most one")
+        self.terms = flat
+        header, body, start = [float(len(flat))], [], 1 + 3 * len(flat)
+        for term in flat:
+            header += [float(term.kind), float(start), float(len(term.P))]
+            body.append(np.asarray(term.P, dtype=float))
+            start += len(term.P)
+        self.P = np.concatenate([np.array(header), *body])
+        self.T = np.ascontiguousarray(tables[0].T) if tables else _EMPTY_TABLE
+        self.attitude_dependent = any(term.attitude_dependent for term in flat)
+
+    def check_span(self, t_end: float) -> None:
+        for term in self.terms:
+            term.check_span(t_end)
+
+    def breakpoints(self, t_end: float) -> np.ndarray:
+        return np.unique(np.concatenate([term.breakpoints(t_end) for term in self.terms]))
+
+    def potential(self, q):
+        parts = [term.potential(q) for term in self.terms]
+        return None if any(p is None for p in parts) else sum(parts)
+
+    def momentum_axis(self):
+        axes = [term.momentum_axis() for term in self.terms]
+        if any(a is None for a in axes) or any(abs(abs(a @ axes[0]) - 1.0) > 1e-12 for a in axes):
+            return None
+        return axes[0]
+
+    def describe(self) -> str:
+        return " + ".join(term.describe() for term in self.terms)
+
+
 def magnetic_torque(dipole, H_body):
     """``mu0 (M_p x H)`` (seed 004 eq. 174) for stacks ``(..., 3)``: dipole [A m^2], H [A/m] -> [N m]."""
     return kernel.MU0 * np.cross(np.asarray(dipole, float), np.asarray(H_body, float))
