@@ -399,12 +399,27 @@ def test_a_read_only_sweep_folder_is_named(tmp_path):
     assert ".tmp" not in err
 
 
+def load_body_centre(model) -> float:
+    """A top's centre of mass from its pivot [m] (the composite of disk and axle)."""
+    import warnings
+
+    from xcheck.models import load_body
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return float(np.linalg.norm(load_body(model).centre))
+
+
 def test_bundled_sweeps_are_valid():
     """The example sweeps parse, with the cells their issues ask for."""
     from xcheck.paths import BUNDLED_MODELS
 
     specs = {p.stem: S.load_sweep(p) for p in sorted((BUNDLED_MODELS / "sweeps").glob("*.toml"))}
-    assert set(specs) == {"rax1-dipole-inertia", "gyroscope-spin-dt", "model-swap", "heavy-top-nutation-dt"}
+    assert set(specs) == {"rax1-dipole-inertia", "gyroscope-spin-dt", "model-swap", "heavy-top-nutation-dt",
+                          "heavy-top-pivot-spin"}
+    pivots = {load_body_centre(c["params"]["model"]) for c in specs["heavy-top-pivot-spin"].cells}
+    # the disk (2 kg) 1, 2, 4 cm above the pivot, the axle (0.02 kg) centred 1.5 cm above it
+    np.testing.assert_allclose(sorted(pivots), [(2.0 * l + 0.02 * 0.015) / 2.02 for l in (0.01, 0.02, 0.04)], rtol=1e-12)
     top = specs["heavy-top-nutation-dt"]  # issue 27: the nutation angle x step on the ball joint
     angles = sorted(2 * np.degrees(np.arccos(c["params"]["attitude"][0])) for c in top.cells)
     np.testing.assert_allclose(angles, [1, 5, 15, 30, 60, 90], atol=1e-9)
@@ -421,7 +436,7 @@ def test_a_bundled_sweep_runs_by_name(tmp_path, capsys):
     assert main(["list"]) == 0
     assert "gyroscope-spin-dt" in capsys.readouterr().out
     assert main(["sweep", "no-such-sweep", "--out", str(tmp_path)]) == 2
-    assert ("not a bundled sweep (gyroscope-spin-dt, heavy-top-nutation-dt, model-swap, rax1-dipole-inertia)"
-            in capsys.readouterr().err)
+    assert ("not a bundled sweep (gyroscope-spin-dt, heavy-top-nutation-dt, heavy-top-pivot-spin, model-swap, "
+            "rax1-dipole-inertia)" in capsys.readouterr().err)
     spec = S.resolve_sweep("gyroscope-spin-dt")
     assert spec.path.name == "gyroscope-spin-dt.toml" and len(spec.cells) == 8
