@@ -139,6 +139,7 @@ def conserved_drift(inertia, traj: Trajectory, torque) -> dict:
     """The drift of what a torque conserves (a top's gravity, a dipole in a field fixed in the world): the energy
     with its potential ``T + V`` (``torque.potential``), relative to ``|T0| + |V0|``; the world angular momentum
     along ``torque.momentum_axis()``, relative to ``|H0|``; each None when the torque conserves no such thing;
+    for a symmetric top (Lagrange's case) ``spin_drift``, its spin momentum about its axis relative to ``|H0|``;
     and ``norm_drift`` as without a torque."""
     I = validate_inertia(inertia)
     q, w = _rows(traj.q, 4), _rows(traj.omega, 3)
@@ -150,10 +151,18 @@ def conserved_drift(inertia, traj: Trajectory, torque) -> dict:
         scale = abs(T[0]) + abs(V[0])
         out["energy_drift"] = float(np.max(np.abs(T + V - T[0] - V[0])) / scale) if scale > 0 else 0.0
     axis = torque.momentum_axis() if hasattr(torque, "momentum_axis") else None
+    H = world_momentum(I, q, w)
+    H0 = np.linalg.norm(H[0])
     if axis is not None:
-        H = world_momentum(I, q, w)
-        H0 = np.linalg.norm(H[0])
         out["momentum_drift"] = float(np.max(np.abs((H - H[0]) @ axis)) / H0) if H0 > 0 else 0.0
+    form = torque.fixed_form() if hasattr(torque, "fixed_form") else None
+    if form is not None:  # a symmetric top (Lagrange's): its spin momentum about its axis, relative to |H0|
+        from .reference import lagrange_why_not
+
+        if lagrange_why_not(I, *form) is None:
+            e3 = form[0] / np.linalg.norm(form[0])
+            spin = (w @ I) @ e3
+            out["spin_drift"] = float(np.max(np.abs(spin - spin[0])) / H0) if H0 > 0 else 0.0
     if "orthogonality" in traj.extras:
         out["orthogonality_drift"] = float(np.max(traj.extras["orthogonality"]))
     return out

@@ -46,6 +46,7 @@ class Run:
     max_omega_error: float | None = None
     energy_drift: float | None = None
     momentum_drift: float | None = None
+    spin_drift: float | None = None  # a symmetric top's spin momentum about its axis (None: not conserved)
     norm_drift: float | None = None
     wall_time: float | None = None
     steps_per_second: float | None = None
@@ -68,7 +69,7 @@ class Run:
 
     def to_json(self) -> dict:
         out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "message"
-               and not (f.name == "rtol" and self.rtol is None)}
+               and not (f.name in ("rtol", "spin_drift") and getattr(self, f.name) is None)}
         if not self.ok or self.message:  # a failure's reason, or a good run's note (an engine's rounded clock)
             out["message"] = self.message
         return out

@@ -91,9 +91,13 @@ def _invariants(m: MethodResult, cfg, ctx) -> Check | None:
     f = m.finest
     if f is None:
         return None
-    drift = max(f.energy_drift, f.momentum_drift)
+    drifts = {name: value for name, value in (("energy", f.energy_drift), ("momentum", f.momentum_drift),
+                                              ("spin momentum", f.spin_drift)) if value is not None}
+    if not drifts:
+        return None
+    drift = max(drifts.values())
     return Check("invariants", drift <= cfg["invariant_tolerance"], m.name, drift, cfg["invariant_tolerance"],
-                 f"energy and momentum drift at dt = {f.dt:g} s")
+                 f"{' and '.join(drifts)} drift at dt = {f.dt:g} s")
 
 
 def _agreement(m: MethodResult, cfg, ctx) -> Check | None:

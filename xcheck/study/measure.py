@@ -115,7 +115,7 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float,
            errors_against(_subset(traj, mask), q_ref[mask], w_ref[mask]))
     drift = invariant_drift(ctx.inertia, traj, ctx.torque)  # under a torque: what it conserves, if anything
     run = Run(dt=dt, **err, energy_drift=drift["energy_drift"], momentum_drift=drift["momentum_drift"],
-              norm_drift=drift["norm_drift"],
+              spin_drift=drift.get("spin_drift"), norm_drift=drift["norm_drift"],
               wall_time=wall, steps_per_second=_steps_per_second(dt, ctx.duration, wall),
               message=traj.extras.get("clock") or "", repeats=repeats, evaluations=traj.extras.get("evaluations"), rtol=rtol)
     if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
