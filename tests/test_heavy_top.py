@@ -344,3 +344,19 @@ def test_a_magnetised_top_composes_gravity_and_its_field_in_every_engine():
     if "basilisk-rk4" in RUNNERS:
         basilisk = RUNNERS["basilisk-rk4"].run(ctx, 1 / 512)
         assert np.max(rot.attitude_error(basilisk.q, runs["mrp-rk4"].q)) < 1e-11
+
+
+def test_a_top_given_alone_takes_the_exact_reference_where_it_reaches_the_motion(tmp_path):
+    """xcheck init / report MODEL.xml on a top: tilted by its keyframe, Lagrange's closed form (stated); upright at
+    the default rate (the axis at the vertical), DOP853, saying why; either way the model's own torque is named."""
+    from xcheck.scenario import model_scenario_text
+
+    text = TOP.read_text().replace("</worldbody>", "</worldbody>\n  <keyframe><key name='tilted' qpos='0.9914448613738104 "
+                                   "0 0.13052619222005157 0' qvel='0 0 15.71'/></keyframe>")
+    tilted = tmp_path / "tilted_top.xml"
+    tilted.write_text(text)
+    toml, assumptions = model_scenario_text(tilted)
+    assert 'reference = "exact"' in toml and any("Lagrange's" in a for a in assumptions)
+    assert any("the model's own torque only: gravity" in a for a in assumptions)
+    toml, assumptions = model_scenario_text(TOP)
+    assert 'reference = "dop853"' in toml and any("within 0 deg of the vertical" in a for a in assumptions)
