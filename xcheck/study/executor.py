@@ -4,6 +4,7 @@ and the converge command's way: this process works beside a pool whose workers i
 from __future__ import annotations
 
 from concurrent.futures import FIRST_COMPLETED, as_completed, wait
+from itertools import groupby
 
 from ..engines import ENGINES
 from ..pool import ready_workers, worker_pool
@@ -63,11 +64,13 @@ def _map_here(fn, tasks, pool, record, prefer, idle=None) -> None:
     Every process pays its imports and compiled-code loading once (1-3 s): a worker fewer, and this process
     working, is that much less to pay. Where it would wait for the workers, it does ``idle()``'s work first (the
     report's figures of a finished scenario that no worker has started on)."""
-    # the workers' own first, in the reverse order, as this process takes its own from the back: both go through
-    # the scenarios the same way, so that each scenario's study is complete (its figures can be drawn) as soon as
-    # both have passed it, not all of them at the very end
+    # the workers' own first, their scenarios in the reverse order, as this process takes its own from the back:
+    # both go through the scenarios the same way, so that each scenario's study is complete (its figures can be
+    # drawn) as soon as both have passed it, not all of them at the very end; within a scenario in the given order
+    # (an engine's RK4, its longest runs, before its adaptive methods)
     theirs = [i for i in range(len(tasks)) if not prefer(tasks[i])]
-    pending = theirs[::-1] + [i for i in range(len(tasks)) if prefer(tasks[i])]
+    groups = [list(g) for _, g in groupby(theirs, key=lambda i: id(tasks[i][0]))]  # a task's scenario comes first
+    pending = [i for g in reversed(groups) for i in g] + [i for i in range(len(tasks)) if prefer(tasks[i])]
     futures: dict = {}
 
     def collect(block: bool):
@@ -81,7 +84,10 @@ def _map_here(fn, tasks, pool, record, prefer, idle=None) -> None:
         ready = ready_workers(pool)
         # the workers' own tasks wait for them however long they take to start; another task goes to a worker
         # only once one has started (this process would otherwise wait for it)
-        while pending and len(futures) < workers + 1 and (ready or not prefer(tasks[pending[0]])):
+        # one of this process's own goes to a worker only when it has nothing else: queued behind a worker's long
+        # run (Basilisk's), it would finish after this process had run out of work and waited for it
+        while pending and (len(futures) < workers + 1 if not prefer(tasks[pending[0]]) else
+                           ready and len(futures) < workers):
             i = pending.pop(0)
             futures[pool.submit(fn, *tasks[i])] = i
         collect(block=False)
