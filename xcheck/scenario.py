@@ -432,6 +432,12 @@ def _read_torque(tq: _Reader) -> dict:
     out = {"kind": kind}
     if kind == "constant":
         out["torque"] = tq.get("torque", ("vector", 3), required=True).tolist()
+    elif kind == "gravity-gradient":
+        from .fields.orbit import GRAVITY_GRADIENT_KEYS
+
+        for key in GRAVITY_GRADIENT_KEYS:
+            if tq.has(key):
+                out[key] = tq.get(key, "number")
     elif kind == "magnetic":
         field_name = tq.get("field", "string", required=True)
         if field_name not in FIELDS:
@@ -449,7 +455,7 @@ def _read_torque(tq: _Reader) -> dict:
             else:
                 out[key] = tq.get(key, spec.kind, required=True)
     else:
-        tq.fail("kind", f"expected 'magnetic' or 'constant', got {kind!r}")
+        tq.fail("kind", f"expected 'magnetic', 'constant' or 'gravity-gradient', got {kind!r}")
     tq.finish()
     return out
 
@@ -479,6 +485,9 @@ def _applied_torque(scenario: Scenario, body):
         return None
     if spec["kind"] == "constant":
         return fields.ConstantTorque(spec["torque"])
+    if spec["kind"] == "gravity-gradient":  # the body's own inertia (a sweep's, where it changes it)
+        inertia = body.inertia if scenario.inertia is None else body.inertia_with(scenario.inertia)
+        return fields.GravityGradientTorque(inertia, **{k: v for k, v in spec.items() if k != "kind"})
     dipole = np.array(spec.get("dipole", body.dipole), dtype=float)
     if not np.any(dipole):
         raise ValueError(f"magnetic torque needs a dipole: none in {body.path} (<custom><numeric "

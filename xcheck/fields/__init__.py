@@ -44,7 +44,7 @@ from .models import (
                      WorldFieldTable,
                      magnetic_torque,
 )
-from .orbit import IGRF2010_DIPOLE_NT, RAX1_ORBIT, OrbitDipoleField, orbit_position
+from .orbit import IGRF2010_DIPOLE_NT, RAX1_ORBIT, GravityGradientTorque, OrbitDipoleField, orbit_position
 from .rax1 import (
                      SEED004_INITIAL_TORQUE,
                      nearest_achievable_torque,
@@ -56,7 +56,7 @@ from .tables import load_field_table, write_field_table
 
 __all__ = [
     "MU0", "FIELDS", "Field", "Key", "TorqueModel", "ConstantTorque", "MagneticTorque", "GravityTorque",
-    "SumTorque",
+    "SumTorque", "GravityGradientTorque",
     "BodyFieldTable",
     "WorldFieldTable", "UniformField", "OrbitDipoleField", "IGRFField", "torque_eval", "torque_needs_attitude",
     "magnetic_torque", "load_field_table", "write_field_table", "orbit_position", "RAX1_ORBIT",

@@ -1,7 +1,7 @@
 """The compiled torque kernel: every torque model evaluated from plain arrays, without a Python call per stage.
 
-A torque model is an integer *kind* (:data:`FREE`, :data:`CONSTANT`, :data:`MAGNETIC`, :data:`SUM` of those), a
-parameter vector ``P``
+A torque model is an integer *kind* (:data:`FREE`, :data:`CONSTANT`, :data:`MAGNETIC`, :data:`GRAVITY_GRADIENT`,
+:data:`SUM` of those), a parameter vector ``P``
 and a table ``T`` (2-D, empty when unused). ``P`` is read by named slot:
 
 ==============  ==========================================================================================
@@ -35,6 +35,7 @@ FREE = 0
 CONSTANT = 1
 MAGNETIC = 2
 SUM = 3  # torques that compose: P = [n, (kind, start, length) per term, then each term's own P]; T the one table
+GRAVITY_GRADIENT = 4  # P = [I (9, row by row, body frame), orbit radius, mean motion, inclination, RAAN, u0]
 
 # slots of P
 VECTOR = 0
@@ -85,6 +86,31 @@ def world_to_body(q, vx, vy, vz):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def orbit_direction(n, inc, raan, u0, t):
+    """The unit position vector (world components) of a circular orbit at time ``t``: argument of latitude
+    ``u0 + n t``, inclination ``inc``, node ``raan`` [rad]."""
+    u = u0 + n * t
+    cu, su, ci, si, cO, sO = np.cos(u), np.sin(u), np.cos(inc), np.sin(inc), np.cos(raan), np.sin(raan)
+    return cO * cu - sO * su * ci, sO * cu + cO * su * ci, su * si
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def gravity_gradient_torque(P, t, q, out):
+    """Gravity-gradient torque [N m] in body components (issue 28): ``3 n^2 (o x I o)`` with ``n^2 = mu / r^3`` and
+    ``o`` the nadir (the orbit's position direction, sign immaterial) in body components, along the circular orbit
+    of the orbit field models."""
+    rx, ry, rz = orbit_direction(P[10], P[11], P[12], P[13], t)
+    ox, oy, oz = world_to_body(q, rx, ry, rz)
+    ix = P[0] * ox + P[1] * oy + P[2] * oz
+    iy = P[3] * ox + P[4] * oy + P[5] * oz
+    iz = P[6] * ox + P[7] * oy + P[8] * oz
+    k = 3.0 * P[10] * P[10]
+    out[0] = k * (oy * iz - oz * iy)
+    out[1] = k * (oz * ix - ox * iz)
+    out[2] = k * (ox * iy - oy * ix)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def orbit_dipole_world(p, t):
     """Field strength H [A/m] in world (inertial) components of a dipole Earth along a circular orbit.
 
@@ -94,11 +120,7 @@ def orbit_dipole_world(p, t):
     ``H = (3 (m.r^) r^ - m) / (4 pi |r|^3)``.
     """
     a, n, inc, raan, u0, g0, we = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
-    u = u0 + n * t
-    cu, su, ci, si, cO, sO = np.cos(u), np.sin(u), np.cos(inc), np.sin(inc), np.cos(raan), np.sin(raan)
-    rx = cO * cu - sO * su * ci
-    ry = sO * cu + cO * su * ci
-    rz = su * si
+    rx, ry, rz = orbit_direction(n, inc, raan, u0, t)
     g = g0 + we * t  # Earth-fixed -> inertial: rotation by g about z
     cg, sg = np.cos(g), np.sin(g)
     mx = cg * p[7] - sg * p[8]
@@ -148,6 +170,8 @@ def sum_torque(P, T, t, q, out):
             out[0], out[1], out[2] = P[start], P[start + 1], P[start + 2]
         elif kind == MAGNETIC:
             magnetic_torque(P[start:start + length], T, t, q, out)
+        elif kind == GRAVITY_GRADIENT:
+            gravity_gradient_torque(P[start:start + length], t, q, out)
         else:
             out[0] = out[1] = out[2] = 0.0
         sx += out[0]
@@ -171,6 +195,8 @@ def torque_eval(kind, P, T, t, q, w, out):
         out[2] = P[VECTOR + 2]
     elif kind == MAGNETIC:
         magnetic_torque(P, T, t, q, out)
+    elif kind == GRAVITY_GRADIENT:
+        gravity_gradient_torque(P, t, q, out)
     else:  # SUM
         sum_torque(P, T, t, q, out)
 
@@ -182,9 +208,12 @@ def torque_needs_attitude(kind, P):
     field's declared frame.)"""
     if kind == MAGNETIC:
         return P[FRAME] == WORLD
+    if kind == GRAVITY_GRADIENT:
+        return True
     if kind == SUM:
         for i in range(int(P[0])):
-            if int(P[1 + 3 * i]) == MAGNETIC and P[int(P[2 + 3 * i]) + FRAME] == WORLD:
+            term = int(P[1 + 3 * i])
+            if term == GRAVITY_GRADIENT or (term == MAGNETIC and P[int(P[2 + 3 * i]) + FRAME] == WORLD):
                 return True
     return False
 

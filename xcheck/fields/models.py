@@ -184,8 +184,9 @@ class SumTorque(TorqueModel):
         if len(flat) < 2:
             raise ValueError(f"terms: a sum needs two torques or more, got {len(flat)}")
         for term in flat:
-            if term.kind not in (kernel.CONSTANT, kernel.MAGNETIC):
-                raise ValueError(f"terms: a sum adds constant and magnetic torques, got {type(term).__name__}")
+            if term.kind not in (kernel.CONSTANT, kernel.MAGNETIC, kernel.GRAVITY_GRADIENT):
+                raise ValueError(f"terms: a sum adds constant, magnetic and gravity-gradient torques, got "
+                                 f"{type(term).__name__}")
         tables = [term for term in flat if term.T.size]
         if len(tables) > 1:
             raise ValueError(f"terms: {len(tables)} of them read a table ({', '.join(t.describe() for t in tables)}); "

@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..body import validate_inertia
 from . import kernel
-from .models import Field, Key
+from .models import Field, Key, TorqueModel
 
 R_EARTH = 6371.2e3  # [m], IGRF reference radius
 MU_EARTH = 3.986004418e14  # [m^3/s^2]
@@ -102,4 +103,37 @@ class OrbitDipoleField(Field):
 
     def describe(self) -> str:
         return (f"dipole Earth field along a circular orbit ({self.altitude_km:g} km, {self.inclination_deg:g}°, "
+                f"RAAN {self.raan_deg:g}°, u0 {self.arg_latitude_deg:g}°)")
+
+
+#: The scenario keys of the gravity-gradient torque (each optional: the default is :data:`RAX1_ORBIT`'s orbit).
+GRAVITY_GRADIENT_KEYS = {k: v for k, v in ORBIT_KEYS.items() if k != "earth_angle_deg"}
+
+
+class GravityGradientTorque(TorqueModel):
+    """The gravity-gradient torque of a circular orbit (issue 28; seed 004 Table 1 puts it at 3e-8 N m on RAX-1):
+    ``tau = 3 mu / r^3 (o x I o)``, ``o`` the nadir in body components, along the orbit the orbit field models use
+    (:func:`circular_orbit`, :data:`RAX1_ORBIT`). It depends on the attitude (through ``o``) quadratically, and is
+    evaluated at every stage in compiled code (:func:`kernel.gravity_gradient_torque`); ``inertia`` is the body's
+    about its centre of mass, body frame."""
+
+    kind = kernel.GRAVITY_GRADIENT
+    attitude_dependent = True
+
+    def __init__(self, inertia, *, altitude_km: float = RAX1_ORBIT["altitude_km"],
+                 inclination_deg: float = RAX1_ORBIT["inclination_deg"], raan_deg: float = RAX1_ORBIT["raan_deg"],
+                 arg_latitude_deg: float = RAX1_ORBIT["arg_latitude_deg"]):
+        self.inertia = validate_inertia(inertia)
+        self.altitude_km, self.inclination_deg = float(altitude_km), float(inclination_deg)
+        self.raan_deg, self.arg_latitude_deg = float(raan_deg), float(arg_latitude_deg)
+        self.a, self.n = circular_orbit(altitude_km, inclination_deg, raan_deg, arg_latitude_deg)
+        self.P = np.concatenate([self.inertia.ravel(), [self.a, self.n, np.radians(self.inclination_deg),
+                                                         np.radians(self.raan_deg), np.radians(self.arg_latitude_deg)]])
+
+    def nadir_world(self, t) -> np.ndarray:
+        """The nadir direction (world components, unit) at times ``t`` (...,) -> (..., 3)."""
+        return -orbit_position(t, self.altitude_km, self.inclination_deg, self.raan_deg, self.arg_latitude_deg) / self.a
+
+    def describe(self) -> str:
+        return (f"gravity gradient along a circular orbit ({self.altitude_km:g} km, {self.inclination_deg:g}°, "
                 f"RAAN {self.raan_deg:g}°, u0 {self.arg_latitude_deg:g}°)")
