@@ -180,6 +180,28 @@ def sum_torque(P, T, t, q, out):
     out[0], out[1], out[2] = sx, sy, sz
 
 
+@njit(cache=True, error_model="numpy", _nrt=False)
+def field_torque(kind, P, T, t, q, out):
+    """The torque of a MAGNETIC, GRAVITY_GRADIENT or SUM model (see :func:`torque_eval`): called, not inlined (each
+    kind inlined into every stage derivative of every scheme cost a fresh clone 10 s more of compiling)."""
+    if kind == MAGNETIC:
+        magnetic_torque(P, T, t, q, out)
+    elif kind == GRAVITY_GRADIENT:
+        gravity_gradient_torque(P, t, q, out)
+    else:
+        sum_torque(P, T, t, q, out)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def sum_needs_attitude(P):
+    """Whether a SUM model has a term that depends on the attitude (see :func:`torque_needs_attitude`)."""
+    for i in range(int(P[0])):
+        term = int(P[1 + 3 * i])
+        if term == GRAVITY_GRADIENT or (term == MAGNETIC and P[int(P[2 + 3 * i]) + FRAME] == WORLD):
+            return True
+    return False
+
+
 @njit(cache=True, error_model="numpy", inline="always")
 def torque_eval(kind, P, T, t, q, w, out):
     """Body-frame torque [N m] of the model ``(kind, P, T)`` at time ``t`` [s], attitude ``q`` [w, x, y, z]
@@ -193,12 +215,8 @@ def torque_eval(kind, P, T, t, q, w, out):
         out[0] = P[VECTOR]
         out[1] = P[VECTOR + 1]
         out[2] = P[VECTOR + 2]
-    elif kind == MAGNETIC:
-        magnetic_torque(P, T, t, q, out)
-    elif kind == GRAVITY_GRADIENT:
-        gravity_gradient_torque(P, t, q, out)
-    else:  # SUM
-        sum_torque(P, T, t, q, out)
+    else:  # MAGNETIC, GRAVITY_GRADIENT, SUM: one call, so that the stage derivatives it is inlined into stay small
+        field_torque(kind, P, T, t, q, out)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -208,14 +226,9 @@ def torque_needs_attitude(kind, P):
     field's declared frame.)"""
     if kind == MAGNETIC:
         return P[FRAME] == WORLD
-    if kind == GRAVITY_GRADIENT:
-        return True
     if kind == SUM:
-        for i in range(int(P[0])):
-            term = int(P[1 + 3 * i])
-            if term == GRAVITY_GRADIENT or (term == MAGNETIC and P[int(P[2 + 3 * i]) + FRAME] == WORLD):
-                return True
-    return False
+        return sum_needs_attitude(P)
+    return kind == GRAVITY_GRADIENT
 
 
 @njit(cache=True, error_model="numpy")
