@@ -298,7 +298,7 @@ def test_a_sum_of_torques_is_its_terms_added():
 
     a, b = ConstantTorque([1e-3, 0.0, 2e-3]), ConstantTorque([0.0, -1e-3, 5e-4])
     both = SumTorque([a, b])
-    np.testing.assert_array_equal(both.P[:7], [2, 1, 7, 3, 1, 10, 3])
+    np.testing.assert_array_equal(both.P[:8], [2, 0, 1, 8, 3, 1, 11, 3])  # n, attitude-dependent, (kind, start, length)
     kw = dict(inertia=np.diag([1.0, 2.0, 3.0]), model_path="", q0=np.array([1.0, 0, 0, 0]),
               omega0=np.array([0.1, 1.0, 0.2]), duration=5.0)
     one = ConstantTorque([1e-3, -1e-3, 2.5e-3])

@@ -34,7 +34,8 @@ MU0 = 4e-7 * np.pi
 FREE = 0
 CONSTANT = 1
 MAGNETIC = 2
-SUM = 3  # torques that compose: P = [n, (kind, start, length) per term, then each term's own P]; T the one table
+SUM = 3  # torques that compose: P = [n, attitude-dependent (0/1), (kind, start, length) per term, then each term's
+#          own P]; T the one table
 GRAVITY_GRADIENT = 4  # P = [I (9, row by row, body frame), orbit radius, mean motion, inclination, RAAN, u0]
 
 # slots of P
@@ -165,7 +166,7 @@ def sum_torque(P, T, t, q, out):
     after the other and added, in the order given (a call of its own, as :func:`magnetic_torque`)."""
     sx = sy = sz = 0.0
     for i in range(int(P[0])):
-        kind, start, length = int(P[1 + 3 * i]), int(P[2 + 3 * i]), int(P[3 + 3 * i])
+        kind, start, length = int(P[2 + 3 * i]), int(P[3 + 3 * i]), int(P[4 + 3 * i])
         if kind == CONSTANT:
             out[0], out[1], out[2] = P[start], P[start + 1], P[start + 2]
         elif kind == MAGNETIC:
@@ -192,16 +193,6 @@ def field_torque(kind, P, T, t, q, out):
         sum_torque(P, T, t, q, out)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
-def sum_needs_attitude(P):
-    """Whether a SUM model has a term that depends on the attitude (see :func:`torque_needs_attitude`)."""
-    for i in range(int(P[0])):
-        term = int(P[1 + 3 * i])
-        if term == GRAVITY_GRADIENT or (term == MAGNETIC and P[int(P[2 + 3 * i]) + FRAME] == WORLD):
-            return True
-    return False
-
-
 @njit(cache=True, error_model="numpy", inline="always")
 def torque_eval(kind, P, T, t, q, w, out):
     """Body-frame torque [N m] of the model ``(kind, P, T)`` at time ``t`` [s], attitude ``q`` [w, x, y, z]
@@ -226,9 +217,7 @@ def torque_needs_attitude(kind, P):
     field's declared frame.)"""
     if kind == MAGNETIC:
         return P[FRAME] == WORLD
-    if kind == SUM:
-        return sum_needs_attitude(P)
-    return kind == GRAVITY_GRADIENT
+    return kind == GRAVITY_GRADIENT or (kind == SUM and P[1] != 0.0)  # a sum says it in its header (no loop here)
 
 
 @njit(cache=True, error_model="numpy")

@@ -192,14 +192,14 @@ class SumTorque(TorqueModel):
             raise ValueError(f"terms: {len(tables)} of them read a table ({', '.join(t.describe() for t in tables)}); "
                              "a sum takes at most one")
         self.terms = flat
-        header, body, start = [float(len(flat))], [], 1 + 3 * len(flat)
+        self.attitude_dependent = any(term.attitude_dependent for term in flat)
+        header, body, start = [float(len(flat)), float(self.attitude_dependent)], [], 2 + 3 * len(flat)
         for term in flat:
             header += [float(term.kind), float(start), float(len(term.P))]
             body.append(np.asarray(term.P, dtype=float))
             start += len(term.P)
         self.P = np.concatenate([np.array(header), *body])
         self.T = np.ascontiguousarray(tables[0].T) if tables else _EMPTY_TABLE
-        self.attitude_dependent = any(term.attitude_dependent for term in flat)
 
     def check_span(self, t_end: float) -> None:
         for term in self.terms:
