@@ -13,6 +13,7 @@ from .trajectory import Trajectory
 
 __all__ = [
     "conserved_drift",
+    "conserved_series",
     "errors_against",
     "kinetic_energy",
     "world_momentum",
@@ -143,18 +144,10 @@ def conserved_drift(inertia, traj: Trajectory, torque) -> dict:
     and ``norm_drift`` as without a torque."""
     I = validate_inertia(inertia)
     q, w = _rows(traj.q, 4), _rows(traj.omega, 3)
-    out = {"energy_drift": None, "momentum_drift": None,
-           "norm_drift": float(np.max(np.abs(np.linalg.norm(q, axis=-1) - 1.0)))}
-    V = torque.potential(q) if hasattr(torque, "potential") else None
-    if V is not None:
-        T = kinetic_energy(I, w)
-        scale = abs(T[0]) + abs(V[0])
-        out["energy_drift"] = float(np.max(np.abs(T + V - T[0] - V[0])) / scale) if scale > 0 else 0.0
-    axis = torque.momentum_axis() if hasattr(torque, "momentum_axis") else None
-    H = world_momentum(I, q, w)
-    H0 = np.linalg.norm(H[0])
-    if axis is not None:
-        out["momentum_drift"] = float(np.max(np.abs((H - H[0]) @ axis)) / H0) if H0 > 0 else 0.0
+    series = conserved_series(I, q, w, torque)
+    out = {key: None if series[key] is None else float(np.max(np.abs(series[key])))
+           for key in ("energy_drift", "momentum_drift")}
+    out["norm_drift"] = float(np.max(np.abs(np.linalg.norm(q, axis=-1) - 1.0)))
     form = torque.fixed_form() if hasattr(torque, "fixed_form") else None
     if form is not None:  # a symmetric top (Lagrange's): its spin momentum about its axis, relative to |H0|
         from .reference import lagrange_why_not
@@ -162,9 +155,30 @@ def conserved_drift(inertia, traj: Trajectory, torque) -> dict:
         if lagrange_why_not(I, *form) is None:
             e3 = form[0] / np.linalg.norm(form[0])
             spin = (w @ I) @ e3
+            H0 = series["H0"]
             out["spin_drift"] = float(np.max(np.abs(spin - spin[0])) / H0) if H0 > 0 else 0.0
     if "orthogonality" in traj.extras:
         out["orthogonality_drift"] = float(np.max(traj.extras["orthogonality"]))
+    return out
+
+
+def conserved_series(inertia, q, omega, torque) -> dict:
+    """Per sample, the relative change of what ``torque`` conserves: ``energy_drift`` of ``T + V`` relative to
+    ``|T0| + |V0|`` (signed), ``momentum_drift`` of the world angular momentum along ``torque.momentum_axis()``
+    relative to ``|H0|``, each None where the torque conserves no such thing; and ``H0``, ``|H0|``. What
+    :func:`conserved_drift` takes the largest of, and the error figure draws."""
+    I = validate_inertia(inertia)
+    out = {"energy_drift": None, "momentum_drift": None}
+    V = torque.potential(q) if hasattr(torque, "potential") else None
+    if V is not None:
+        T = kinetic_energy(I, omega)
+        scale = abs(T[0]) + abs(V[0])
+        out["energy_drift"] = (T + V - T[0] - V[0]) / scale if scale > 0 else np.zeros_like(T)
+    H = world_momentum(I, q, omega)
+    out["H0"] = H0 = np.linalg.norm(H[0])
+    axis = torque.momentum_axis() if hasattr(torque, "momentum_axis") else None
+    if axis is not None:
+        out["momentum_drift"] = np.abs((H - H[0]) @ axis) / H0 if H0 > 0 else np.zeros(len(H))
     return out
 
 

@@ -64,6 +64,10 @@ class MJCFBody(RigidBody):
         R = rot.quat_to_dcm(np.asarray(self.model_iquat, dtype=float))
         return R @ np.diag(np.asarray(moments, dtype=float)) @ R.T + _parallel_axes(self.mass, self.centre)
 
+    def inertia_for(self, moments=None) -> np.ndarray:
+        """The inertia a run uses: the model's, or :meth:`inertia_with` a sweep's ``moments`` (None: the model's)."""
+        return self.inertia if moments is None else self.inertia_with(moments)
+
     def own_torque(self):
         """The torque the model itself exerts on the body (None: none): on a ball joint, gravity's about the pivot
         (:class:`~xcheck.fields.GravityTorque`, evaluated at every stage like any attitude-dependent torque)."""

@@ -26,7 +26,7 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "check_scenario_model", "scenario_from_model",
-           "model_scenario_text", "is_model_arg", "bundled_scenarios",
+           "model_scenario_text", "is_model_arg", "bundled_scenarios", "build_torque", "torque_parts",
            "resolve_scenario", "check_name", "check_steps", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
            "ADAPTIVE_TURN", "default_adaptive_step",
            "SCENARIO_DIR"]
@@ -411,7 +411,7 @@ def check_scenario_model(scenario: Scenario) -> None:
     if scenario.reference == "exact" and torque is not None:
         from .reference import ReferenceFailure, exact_reference, exact_why_not
 
-        inertia = body.inertia if scenario.inertia is None else body.inertia_with(scenario.inertia)
+        inertia = body.inertia_for(scenario.inertia)
         why = exact_why_not(inertia, torque)
         if why is None:
             try:  # Lagrange's top: its closed form must reach this motion (cheap: two times)
@@ -468,13 +468,18 @@ def build_torque(scenario: Scenario, body):
     """The :class:`~xcheck.fields.TorqueModel` on the body of a scenario (None when torque free): the scenario's
     ``[torque]``, the one the model exerts itself (a top's gravity about its pivot, ``body.own_torque()``), or
     both, summed (:class:`~xcheck.fields.SumTorque`)."""
-    own = body.own_torque() if hasattr(body, "own_torque") else None
-    applied = _applied_torque(scenario, body)
+    own, applied = torque_parts(scenario, body)
     if own is not None and applied is not None:  # a magnetised top in a field: both, summed at every stage
         from .fields import SumTorque
 
         return SumTorque([own, applied])
     return own if own is not None else applied
+
+
+def torque_parts(scenario: Scenario, body):
+    """``(own, applied)``: the torque the model exerts itself (a top's gravity; an engine that simulates the MJCF
+    exerts it on its own) and the scenario's ``[torque]``, each a :class:`~xcheck.fields.TorqueModel` or None."""
+    return body.own_torque(), _applied_torque(scenario, body)
 
 
 def _applied_torque(scenario: Scenario, body):
@@ -486,8 +491,8 @@ def _applied_torque(scenario: Scenario, body):
     if spec["kind"] == "constant":
         return fields.ConstantTorque(spec["torque"])
     if spec["kind"] == "gravity-gradient":  # the body's own inertia (a sweep's, where it changes it)
-        inertia = body.inertia if scenario.inertia is None else body.inertia_with(scenario.inertia)
-        return fields.GravityGradientTorque(inertia, **{k: v for k, v in spec.items() if k != "kind"})
+        return fields.GravityGradientTorque(body.inertia_for(scenario.inertia),
+                                            **{k: v for k, v in spec.items() if k != "kind"})
     dipole = np.array(spec.get("dipole", body.dipole), dtype=float)
     if not np.any(dipole):
         raise ValueError(f"magnetic torque needs a dipole: none in {body.path} (<custom><numeric "

@@ -222,20 +222,24 @@ def _stepped(m, d, n, last_h, body, torque, torque_mode):
     tau_view = d.qfrc_applied[body.rate_slice]
     if body.joint == "free":  # the joint's quaternion is the world attitude a torque model reads
         q_view = d.qpos[body.quat_slice]
+
+        def attitude():
+            return q_view
     else:  # a ball joint's is relative to the body's reference orientation: the world attitude made at every call
-        joint_q, reference, q_view = d.qpos[body.quat_slice], np.asarray(body.reference_quat, float), np.empty(4)
+        joint_q, q_view = d.qpos[body.quat_slice], np.empty(4)
+
+        def attitude():
+            q_view[:] = body.from_joint(joint_q)
+            return q_view
     if isinstance(torque, TorqueModel):
         kind, P, T = torque.kernel_data()
 
         def body_torque(t, out):
-            if body.joint != "free":
-                q_view[:] = rot.quat_mul(reference, joint_q)
-            torque_eval(kind, P, T, t, q_view, w_view, out)
+            torque_eval(kind, P, T, t, attitude(), w_view, out)
     else:
         def body_torque(t, out):
-            if body.joint != "free":
-                q_view[:] = rot.quat_mul(reference, joint_q)
-            out[:] = np.asarray(torque(t, q_view / np.linalg.norm(q_view), w_view.copy()), dtype=float)
+            q = attitude()
+            out[:] = np.asarray(torque(t, q / np.linalg.norm(q), w_view.copy()), dtype=float)
 
     if torque_mode == "callback":
         def callback(model, data):

@@ -5,10 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..fields import SumTorque
 from ..reference import ReferenceFailure, dop853_solution, exact_reference
 from ..runners import RUNNERS, RunContext
-from ..scenario import Scenario, build_torque
+from ..scenario import Scenario, build_torque, torque_parts
 
 __all__ = ["run_context", "scenario_reference", "scenario_key"]
 
@@ -43,14 +42,13 @@ def run_context(scenario: Scenario) -> RunContext:
 
         body = load_body(scenario.model)
         moments = scenario.inertia
-        torque = build_torque(scenario, body)
+        own, applied = torque_parts(scenario, body)
         # an engine that simulates the MJCF exerts the model's own torque (a top's gravity) itself: it applies only
-        # the scenario's (the sum's last term: scenario.build_torque puts the model's first)
-        engine = "same" if body.own_torque() is None else (torque.terms[-1] if isinstance(torque, SumTorque) else None)
-        return RunContext(inertia=body.inertia if moments is None else body.inertia_with(moments),
-                          model_path=str(scenario.model), q0=scenario.q0, omega0=scenario.omega0,
-                          duration=scenario.duration, torque=torque, sequence=scenario.sequence,
-                          model_moments=None if moments is None else tuple(moments), engine_torque=engine)
+        # the scenario's
+        return RunContext(inertia=body.inertia_for(moments), model_path=str(scenario.model), q0=scenario.q0,
+                          omega0=scenario.omega0, duration=scenario.duration, torque=build_torque(scenario, body),
+                          sequence=scenario.sequence, model_moments=None if moments is None else tuple(moments),
+                          engine_torque="same" if own is None else applied)
     return _cached("context", scenario, make)
 
 
