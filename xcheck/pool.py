@@ -50,11 +50,15 @@ def make_pool(workers: int | None = None) -> ProcessPoolExecutor:
                                initializer=_die_with_parent, initargs=(os.getpid(),))
 
 
-def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 2.0) -> None:
+def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 2.0, completed: bool = False) -> None:
     """Stop ``pool`` now: cancel what has not started, terminate the workers (SIGTERM, then SIGKILL after
-    ``grace`` seconds) and wait for them, so that nothing they write can land after this returns."""
+    ``grace`` seconds) and wait for them, so that nothing they write can land after this returns. ``completed``:
+    every task's result was collected, so nothing is left to send to the workers (see the end)."""
     procs = list((getattr(pool, "_processes", None) or {}).values())  # the executor's own record of its workers
-    wakeup = getattr(pool, "_executor_manager_thread_wakeup", None)  # shutdown() forgets it (see the end)
+    # shutdown() forgets these three (it sets them to None), so they are taken first
+    wakeup = getattr(pool, "_executor_manager_thread_wakeup", None)
+    call_queue = getattr(pool, "_call_queue", None)
+    thread = getattr(pool, "_executor_manager_thread", None)
     if not all(f.done() for f in getattr(pool, "starting", ())):
         # a worker still starting (an input refused at once) is killed before the executor closes the pipes it
         # is reading and writing: it printed a traceback of its own (BrokenPipeError) on the way out
@@ -62,6 +66,12 @@ def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 2.0) -> None:
             p.kill()
         for p in procs:
             p.join(grace)
+    # the tasks not yet sent sit in the call queue, whose feeder thread may be blocked writing a large one into the
+    # pipe of workers that are gone (this process holds the pipe's other end, so the write never fails): it must
+    # not be waited for, by the executor's thread or at exit (seen once: a nightly alive ten minutes after
+    # "interrupted"). With every result collected there is nothing left to send, and it is waited for (below).
+    if call_queue is not None and not (completed and not getattr(call_queue, "_buffer", True)):
+        call_queue.cancel_join_thread()
     pool.shutdown(wait=False, cancel_futures=True)
     for p in procs:
         if p.is_alive():
@@ -72,23 +82,36 @@ def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 2.0) -> None:
         if p.is_alive():
             p.kill()
             p.join(1.0)
-    # the tasks not yet sent sit in the call queue, whose feeder thread may be blocked writing a large one into the
-    # pipe of workers that are gone (this process holds the pipe's other end, so the write never fails): it must
-    # not be waited for at exit (seen once: a nightly alive ten minutes after "interrupted")
-    call_queue = getattr(pool, "_call_queue", None)
-    if call_queue is not None:
-        call_queue.cancel_join_thread()
     # let the executor's own thread see its workers gone and close its pipes now, not at interpreter exit (where it
-    # raced atexit's wake-up of it: "OSError: Bad file descriptor")
-    thread = getattr(pool, "_executor_manager_thread", None)
-    if thread is not None:
-        thread.join(grace)
+    # raced atexit's wake-up of it: "OSError: Bad file descriptor"). Gone for good: as a thread ends, after join()
+    # returns, it drops its last references to the queues, whose named semaphores' finalizers then tell
+    # multiprocessing's resource tracker they are unlinked; a process that left by os._exit meanwhile
+    # (cli.entry) cut that message, and the tracker printed "There appear to be 1 leaked semaphore objects" (2
+    # runs in 8). The queue's feeder thread holds one of them the same way.
+    feeder = None if getattr(call_queue, "_joincancelled", True) else getattr(call_queue, "_thread", None)
+    for t in (thread, feeder):
+        if t is not None:
+            _ended(t, grace)
     # at exit, concurrent.futures wakes that thread through a pipe the thread closes as it ends, without a lock
     # between the two (Python 3.11): a thread still ending then makes the wake-up write to a closed descriptor,
     # printed as "Exception ignored ... OSError: Bad file descriptor" after our message. The pool is stopped:
     # there is nothing left to wake.
     if wakeup is not None:
         wakeup.wakeup = _quiet(wakeup.wakeup)
+
+
+def _ended(thread: threading.Thread, timeout: float) -> None:
+    """Wait (at most ``timeout`` s) until ``thread`` has ended, its operating-system thread included: join()
+    returns once its Python code is done, while it may still be dropping references (running finalizers). On
+    Linux the thread is gone when /proc no longer lists it; elsewhere join() is what there is."""
+    deadline = time.monotonic() + timeout
+    thread.join(timeout)
+    native = getattr(thread, "native_id", None)
+    if native is None or not sys.platform.startswith("linux") or thread.is_alive():
+        return
+    task = f"/proc/self/task/{native}"
+    while os.path.exists(task) and time.monotonic() < deadline:
+        time.sleep(0.0002)
 
 
 def _quiet(wake):
@@ -205,8 +228,10 @@ def worker_pool(workers: int | None = None, *, warm: tuple[str, ...] = ()):
     idle, so ending them spares their interpreters' teardown (0.5 s measured, numba and MuJoCo loaded).
     The workers start at once (:func:`_start_workers`); ``warm``: modules each imports then."""
     pool = make_pool(workers)
+    completed = False
     try:
         _start_workers(pool, warm)
         yield pool
+        completed = True
     finally:
-        stop_pool(pool)
+        stop_pool(pool, completed=completed)
