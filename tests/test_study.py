@@ -157,6 +157,36 @@ def test_direct_comparison_is_the_trajectories_difference():
     assert got[("mujoco-euler", "lie-rkmk4", 1 / 128)] == pytest.approx(euler.max_attitude_error, rel=1e-2)
 
 
+def test_a_comparison_left_to_the_assembling_process_is_the_same(monkeypatch):
+    """A process without our compiled code loaded (a worker that drives Basilisk alone) leaves the direct
+    comparisons to the process that assembles the study, sending the run's times and attitudes: the same
+    numbers, bit for bit, as the comparisons made where the run was."""
+    from xcheck.study import measure
+
+    sc = resolve_scenario("gyroscope-nonsingular")
+    steps = (1 / 64, 1 / 128)
+    monkeypatch.setattr(measure, "compiled_code_loaded", lambda: True)
+    here = measure.measure_method(sc, "mujoco-rk4", steps, "lie-rkmk4")
+    monkeypatch.setattr(measure, "compiled_code_loaded", lambda: False)
+    left = measure.measure_method(sc, "mujoco-rk4", steps, "lie-rkmk4")
+    assert [sorted(c) for c in left.comparisons] == [["a", "b", "dt", "later"]] * 2
+    assert len(here.comparisons) == 2 and measure.resolve_comparisons(sc, left.comparisons) == here.comparisons
+
+
+def test_compiled_code_is_loaded_with_the_first_compiled_function():
+    """The state that decides it: false after every import of a study (numba declares the functions then),
+    true once one has been compiled or loaded from the cache. Run in a process of its own."""
+    import subprocess
+    import sys
+
+    script = ("from xcheck._jit import compiled_code_loaded\nimport xcheck.study, xcheck.engines.mujoco\n"
+              "before = compiled_code_loaded()\nimport numpy as np\nfrom xcheck.metrics import _errors\n"
+              "_errors(np.ones((2, 4)), np.ones((2, 3)), np.ones((2, 4)), np.ones((2, 3)), np.empty(4))\n"
+              "print(before, compiled_code_loaded())")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert out.stdout.split() == ["False", "True"], out.stderr
+
+
 def test_a_coarse_step_failure_is_worded_as_such(scenario):
     rs = runs(4)
     rs[0] = Run.failed(STEPS[0], "failed", "blew up", 0.0)

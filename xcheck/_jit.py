@@ -31,7 +31,7 @@ from numba.core import caching, config
 
 from . import __version__
 
-__all__ = ["njit", "prange", "numba", "cache_root", "user_cache_home", "COMPILED_SOURCES"]
+__all__ = ["njit", "prange", "numba", "cache_root", "user_cache_home", "compiled_code_loaded", "COMPILED_SOURCES"]
 
 PACKAGE = Path(__file__).resolve().parent
 #: The package files with ``cache=True`` functions, relative to the package folder.
@@ -80,6 +80,18 @@ class XcheckCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLo
             return None
         # the mixin checks that the file exists and that the folder can be created and written; None if not
         return super().from_function(py_func, py_file)
+
+
+def compiled_code_loaded() -> bool:
+    """Whether this process has loaded compiled code yet. numba's first compiled function of a process builds
+    its CPU context first (0.3-0.5 s: the registries of every numpy and math implementation); a process that
+    only drives another engine (Basilisk's worker) need never pay it, where the same result is numpy's for a
+    few milliseconds more (:func:`xcheck.metrics.errors_against`). False also if numba ever keeps that state
+    elsewhere: numpy's way is then taken everywhere, with the same numbers."""
+    from numba.core.registry import cpu_target
+
+    context = vars(cpu_target).get("_toplevel_target_context")  # made as a compiled function is declared
+    return bool(getattr(context, "_registries", None))  # filled as the first one is compiled or loaded
 
 
 def _install() -> None:

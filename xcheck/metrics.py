@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import rotations as rot
-from ._jit import njit
+from ._jit import compiled_code_loaded, njit
 from .body import validate_inertia
 from .trajectory import Trajectory
 
@@ -50,8 +50,13 @@ def errors_against(traj: Trajectory, q_ref: np.ndarray, omega_ref: np.ndarray) -
     if not len(q) == len(w) == len(q_ref) == len(omega_ref) > 0:
         raise ValueError(f"errors_against: expected as many (and some) states as reference values, got {len(q)} "
                          f"quaternions, {len(w)} rates, {len(q_ref)} and {len(omega_ref)} reference values")
-    out = np.empty(4)
-    _errors(q, w, q_ref, omega_ref, out)
+    if not compiled_code_loaded():  # numpy's statement of the same operations (see compiled_code_loaded)
+        att = rot.attitude_error(q, q_ref)
+        om = np.linalg.norm(w - omega_ref, axis=-1)
+        out = (att[-1], np.max(att), om[-1], np.max(om))
+    else:
+        out = np.empty(4)
+        _errors(q, w, q_ref, omega_ref, out)
     return {"attitude_error": float(out[0]), "max_attitude_error": float(out[1]),
             "omega_error": float(out[2]), "max_omega_error": float(out[3])}
 
@@ -126,8 +131,13 @@ def invariant_drift(inertia, traj: Trajectory, torque=None) -> dict:
     if not len(q) == len(w) > 0:
         raise ValueError(f"invariant_drift: expected as many (and some) quaternions as rates, got {len(q)} and {len(w)}")
     E = kinetic_energy(I, w)
-    drift = np.empty(6)  # the rest in one compiled pass: world_momentum's rotation, the maxima (bit for bit numpy's)
-    _drifts(q, np.ascontiguousarray(w @ I.T), E, drift)
+    if not compiled_code_loaded():  # numpy's statement of the same operations (see compiled_code_loaded)
+        H = world_momentum(I, q, w)
+        drift = (np.max(np.abs(E - E[0])), np.max(np.linalg.norm(H - H[0], axis=-1)),
+                 np.max(np.abs(np.linalg.norm(q, axis=-1) - 1.0)), *H[0])
+    else:  # the rest in one compiled pass: world_momentum's rotation, the maxima (bit for bit numpy's)
+        drift = np.empty(6)
+        _drifts(q, np.ascontiguousarray(w @ I.T), E, drift)
     E0, H0 = E[0], np.linalg.norm(drift[3:])
     out = {"energy_drift": float(drift[0] / E0) if E0 > 0 else 0.0,
            "momentum_drift": float(drift[1] / H0) if H0 > 0 else 0.0, "norm_drift": float(drift[2])}

@@ -26,7 +26,7 @@ from ..scenario import Scenario, check_steps
 from ..versions import versions
 from .checks import adaptive_note, planned_checks, study_checks, study_floor, verdict
 from .executor import map_tasks, prefer_here
-from .measure import PLOT_SAMPLE_DT, run_method
+from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_method
 
 __all__ = ["run_study", "run_studies", "assemble", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows",
            "planned_checks", "default_methods", "comparison_partner"]
@@ -192,7 +192,7 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
         checks = study_checks(scenario, methods, scenario.checks, quick)
     for m in methods.values():
         m.verdict = verdict(m.name, checks)
-    comparisons = [c for res in results for c in res.comparisons]
+    comparisons = resolve_comparisons(scenario, [c for res in results for c in res.comparisons])
     return StudyResult(scenario=scenario, steps=list(steps), methods=methods, checks=checks, order_floor=floor,
                        quick=quick, series=series, comparisons=comparisons)
 

@@ -10,7 +10,10 @@ from ..engines import ENGINES
 from ..pool import ready_workers, worker_pool
 from ..runners import RUNNERS
 
-__all__ = ["map_tasks", "prefer_here"]
+__all__ = ["map_tasks", "prefer_here", "COLD_WORKER_TASKS"]
+
+#: A worker that has run none of this process's tasks is given one only while more than this many are left.
+COLD_WORKER_TASKS = 12
 
 
 def prefer_here(task) -> bool:
@@ -80,15 +83,24 @@ def _map_here(fn, tasks, pool, record, prefer, idle=None) -> None:
             record(futures.pop(fut), fut.result())
 
     workers = getattr(pool, "_max_workers", 1) or 1
+    warm = [False]  # the pool has run one of this process's tasks (and so loaded our compiled code)
+
+    def worth_sending() -> bool:
+        """One of this process's own tasks goes to a worker only when a worker is idle (queued behind a long run
+        of Basilisk's it would finish after this process had run out of work and waited for it), and, before
+        the pool has run one, only with enough of them left: the first costs a worker the load of our compiled
+        code (0.3-0.5 s; a worker that drove Basilisk alone never loaded it), where this process runs one of a
+        quick study in 10-20 ms (seen: the last task of a converge stolen, finishing 0.25 s after this one)."""
+        if not (ready_workers(pool) and len(futures) < workers):
+            return False
+        return warm[0] or sum(prefer(tasks[i]) for i in pending) > COLD_WORKER_TASKS
+
     while pending or futures:
-        ready = ready_workers(pool)
         # the workers' own tasks wait for them however long they take to start; another task goes to a worker
         # only once one has started (this process would otherwise wait for it)
-        # one of this process's own goes to a worker only when it has nothing else: queued behind a worker's long
-        # run (Basilisk's), it would finish after this process had run out of work and waited for it
-        while pending and (len(futures) < workers + 1 if not prefer(tasks[pending[0]]) else
-                           ready and len(futures) < workers):
+        while pending and (len(futures) < workers + 1 if not prefer(tasks[pending[0]]) else worth_sending()):
             i = pending.pop(0)
+            warm[0] = warm[0] or prefer(tasks[i])
             futures[pool.submit(fn, *tasks[i])] = i
         collect(block=False)
         if not pending:

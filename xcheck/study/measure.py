@@ -10,6 +10,7 @@ import time
 import numpy as np
 
 from .. import rotations as rot
+from .._jit import compiled_code_loaded
 from ..metrics import errors_against, invariant_drift
 from ..reference import ReferenceFailure
 from ..results import MethodRuns, Run
@@ -73,11 +74,35 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
             _retime_outliers(runner, ctx, runs)
         finest = (dt, traj)
         if partner is not None:
-            difference = _difference(scenario, ctx, traj, partner, dt)
-            if difference is not None:
-                comparisons.append({"a": method, "b": partner, "dt": dt, "max_attitude_difference": difference})
+            comparisons.append(_compare(scenario, ctx, traj, method, partner, dt))
     series = _sample(finest, ref, ctx) if finest is not None and sample else None
-    return MethodRuns(method, runs, series=series, comparisons=comparisons)
+    return MethodRuns(method, runs, series=series, comparisons=[c for c in comparisons if c is not None])
+
+
+def _compare(scenario, ctx, traj, method: str, partner: str, dt: float, now: bool = False) -> dict | None:
+    """The direct comparison of ``traj`` with ``partner``'s run at the same step, or, in a process that has not
+    loaded our compiled code (a worker that only drives Basilisk: its first load costs 0.3-0.5 s, on the path
+    of every study that waits for that worker), the run's times and attitudes, for the process that assembles
+    the study to compare (:func:`resolve_comparisons`): the same numbers either way."""
+    if not (now or compiled_code_loaded()):
+        return {"a": method, "b": partner, "dt": dt, "later": (traj.t, traj.q)}
+    difference = _difference(scenario, ctx, traj, partner, dt)
+    return None if difference is None else {"a": method, "b": partner, "dt": dt, "max_attitude_difference": difference}
+
+
+def resolve_comparisons(scenario: Scenario, comparisons: list) -> list:
+    """``comparisons`` with those a worker left to this process (:func:`_compare`) made here."""
+    from ..trajectory import Trajectory
+
+    out = []
+    for c in comparisons:
+        if "later" in c:
+            t, q = c["later"]
+            c = _compare(scenario, run_context(scenario), Trajectory(t=t, q=q, omega=np.zeros((len(t), 3))),
+                         c["a"], c["b"], c["dt"], now=True)
+        if c is not None:
+            out.append(c)
+    return out
 
 
 #: A run shorter than this [s] is repeated (up to :data:`TIMING_REPEATS` runs in all) until this much time is
