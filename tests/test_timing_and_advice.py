@@ -53,10 +53,10 @@ class _Runner:
 
 
 @pytest.mark.parametrize("seconds, first, repeats, best", [
-    (0.0005, None, 5, 0.0005),  # short: the run limit (5) comes first
-    (0.002, None, 3, 0.002),    # 2 + 2 = 4 ms < 5 ms, the third crosses the budget
+    (0.0002, None, 5, 0.0002),  # short: the run limit (5) comes first
+    (0.0008, None, 3, 0.0008),  # 0.8 + 0.8 = 1.6 ms < 2 ms, the third crosses the budget
     (0.004, 0.015, 1, 0.015),   # a first run over the budget is not repeated
-    (0.001, 0.0035, 3, 0.001),  # a slow first run (loading) is replaced by the best of the repeats
+    (0.0004, 0.0015, 3, 0.0004),  # a slow first run (loading) is replaced by the best of the repeats
     (0.05, None, 1, 0.05),      # long: once
 ])
 def test_short_runs_are_repeated_within_a_budget_and_the_best_kept(monkeypatch, seconds, first, repeats, best):

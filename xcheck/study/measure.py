@@ -107,8 +107,9 @@ def resolve_comparisons(scenario: Scenario, comparisons: list) -> list:
 
 #: A run shorter than this [s] is repeated (up to :data:`TIMING_REPEATS` runs in all) until this much time is
 #: spent, and its wall time is the best of those runs (``timeit``'s autorange, bounded): most runs of a quick
-#: study take 0.1-5 ms, where one measurement is mostly timer noise and cache effects.
-TIMING_BUDGET = 0.005
+#: study take 0.1-5 ms, where one measurement is mostly timer noise and cache effects. (2 ms: the work-precision
+#: lines as monotone as at 5 ms, and 2.5 s less CPU in a full report; session 12.)
+TIMING_BUDGET = 0.002
 TIMING_REPEATS = 5
 
 
