@@ -148,8 +148,8 @@ def test_refusals_name_the_file_and_the_reason(tmp_path):
     base = (f'name = "top"\nmodel = "{TOP}"\nduration = 1.0\n[initial]\nquaternion = [1, 0, 0, 0]\n'
             'angular_velocity = [0, 0, 10]\n')
     scenario.write_text(base + '[study]\nreference = "exact"\n')
-    with pytest.raises(ScenarioError, match="'exact' is the torque-free solution or Lagrange's top, and the model "
-                                            "exerts a torque of its own \\(gravity.*within 0 deg of the vertical"):
+    with pytest.raises(ScenarioError, match="'exact' is the torque-free solution, Lagrange's top or the axisymmetric "
+                                            "gyrostat, and the body is under gravity.*within 0 deg of the vertical"):
         resolve_scenario(str(scenario))
     # a [torque] beside the model's gravity composes (a magnetised top: test_a_magnetised_top_composes_...)
     scenario.write_text(base + '[torque]\nkind = "constant"\ntorque = [0, 0, 1e-3]\n[study]\nreference = "dop853"\n')

@@ -99,7 +99,7 @@ def test_a_refused_model_says_why(tmp_path, capsys):
                    "</mujoco>")
     assert main(["report", str(bad), "--quick", "--out", str(tmp_path / "r")]) == 2
     err = capsys.readouterr().err
-    assert f"{bad}: joint '#0' is a hinge joint: only one free joint or one ball joint" in err and "Traceback" not in err
+    assert f"{bad}: joint '#0' is a hinge joint with no free body to carry it" in err and "Traceback" not in err
     assert not (tmp_path / "r").exists() or not any((tmp_path / "r").rglob("index.html"))
 
 

@@ -154,7 +154,7 @@ def conserved_drift(inertia, traj: Trajectory, torque) -> dict:
     and ``norm_drift`` as without a torque."""
     I = validate_inertia(inertia)
     q, w = _rows(traj.q, 4), _rows(traj.omega, 3)
-    series = conserved_series(I, q, w, torque)
+    series = conserved_series(I, q, w, torque, traj.t)
     out = {key: None if series[key] is None else float(np.max(np.abs(series[key])))
            for key in ("energy_drift", "momentum_drift")}
     out["norm_drift"] = float(np.max(np.abs(np.linalg.norm(q, axis=-1) - 1.0)))
@@ -172,11 +172,13 @@ def conserved_drift(inertia, traj: Trajectory, torque) -> dict:
     return out
 
 
-def conserved_series(inertia, q, omega, torque) -> dict:
+def conserved_series(inertia, q, omega, torque, t=None) -> dict:
     """Per sample, the relative change of what ``torque`` conserves: ``energy_drift`` of ``T + V`` relative to
     ``|T0| + |V0|`` (signed), ``momentum_drift`` of the world angular momentum along ``torque.momentum_axis()``
-    relative to ``|H0|``, each None where the torque conserves no such thing; and ``H0``, ``|H0|``. What
-    :func:`conserved_drift` takes the largest of, and the error figure draws."""
+    relative to ``|H0|`` (all of it, ``|H - H0| / |H0|``, for an internal torque: a gyrostat's wheels, whose
+    momentum ``h(t)`` the world momentum ``R (I w + h)`` includes; ``t`` the samples' times), each None where the
+    torque conserves no such thing; and ``H0``, ``|H0|``. What :func:`conserved_drift` takes the largest of, and
+    the error figure draws."""
     I = validate_inertia(inertia)
     out = {"energy_drift": None, "momentum_drift": None}
     V = torque.potential(q) if hasattr(torque, "potential") else None
@@ -184,10 +186,13 @@ def conserved_series(inertia, q, omega, torque) -> dict:
         T = kinetic_energy(I, omega)
         scale = abs(T[0]) + abs(V[0])
         out["energy_drift"] = (T + V - T[0] - V[0]) / scale if scale > 0 else np.zeros_like(T)
-    H = world_momentum(I, q, omega)
+    h = torque.internal_momentum(t) if t is not None and hasattr(torque, "internal_momentum") else None
+    H = world_momentum(I, q, omega) if h is None else rot.quat_rotate(q, np.asarray(omega, dtype=float) @ I.T + h)
     out["H0"] = H0 = np.linalg.norm(H[0])
     axis = torque.momentum_axis() if hasattr(torque, "momentum_axis") else None
-    if axis is not None:
+    if getattr(torque, "conserves_momentum", False) and h is not None:
+        out["momentum_drift"] = np.linalg.norm(H - H[0], axis=-1) / H0 if H0 > 0 else np.zeros(len(H))
+    elif axis is not None:
         out["momentum_drift"] = np.abs((H - H[0]) @ axis) / H0 if H0 > 0 else np.zeros(len(H))
     return out
 

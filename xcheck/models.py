@@ -20,7 +20,7 @@ import numpy as np
 from . import rotations as rot
 from .body import RigidBody
 
-__all__ = ["ModelError", "MJCFBody", "load_body", "load_mujoco", "composite_inertia", "initial_state", "InitialState", "DEFAULT_RATE",
+__all__ = ["ModelError", "MJCFBody", "Wheel", "load_body", "load_mujoco", "composite_inertia", "initial_state", "InitialState", "DEFAULT_RATE",
            "DIPOLE_NUMERIC"]
 
 #: The name of the ``<custom><numeric>`` that holds the permanent dipole [A m^2].
@@ -29,6 +29,35 @@ DIPOLE_NUMERIC = "xcheck_dipole"
 
 class ModelError(ValueError):
     """An MJCF file that xcheck cannot use; the message names the file and the reason."""
+
+
+#: The prefix of the ``<custom><numeric>`` that gives a motor its command: ``xcheck_pulse:<actuator name>`` with
+#: ``data="peak t0 t1"``, a torque pulse ``peak sin^2(pi (t - t0) / (t1 - t0))`` [N m] on the wheel over
+#: ``[t0, t1]`` [s] (:func:`xcheck.fields.kernel.pulse`); a motor without one exerts nothing.
+PULSE_NUMERIC = "xcheck_pulse:"
+#: What a gyrostat may drive its wheels with (the refusal of any other actuator names them).
+ALLOWED_ACTUATORS = ("a <motor> (or a <general> with a fixed gain and no bias or dynamics) on a wheel's hinge, "
+                     "commanded by a <numeric name=\"xcheck_pulse:ACTUATOR\" data=\"peak t0 t1\"/> torque pulse")
+
+
+@dataclass(frozen=True)
+class Wheel:
+    """An axisymmetric wheel of a gyrostat (issue 28): a child body on a hinge whose axis passes through its centre
+    of mass. ``axis``: the hinge axis (unit, the free body's frame); ``moment``: its axial moment of inertia
+    [kg m^2]; ``dof``/``qpos``: its hinge's ``qvel``/``qpos`` address; ``actuator``: the motor driving it (-1:
+    none) and ``gain``, the torque [N m] a unit ``ctrl`` exerts on the wheel; ``pulse``: its command ``(peak, t0,
+    t1)`` (None: a free wheel); ``speed``: its speed relative to the body [rad/s] in the model's first keyframe
+    (0 without one)."""
+
+    name: str
+    axis: tuple
+    moment: float
+    dof: int
+    qpos: int
+    actuator: int = -1
+    gain: float = 1.0
+    pulse: tuple | None = None
+    speed: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -57,6 +86,9 @@ class MJCFBody(RigidBody):
     #: ball joint: the body's world attitude at the joint's ``qpos`` = identity (its reference orientation, the
     #: MJCF's ``quat`` and its parents'): the world attitude is ``reference_quat ⊗ qpos``
     reference_quat: tuple = (1.0, 0.0, 0.0, 0.0)
+    #: a gyrostat's wheels (:class:`Wheel`); its ``inertia`` is then the whole body's about the common centre of mass
+    #: less each wheel's axial moment about its axis (what :class:`~xcheck.fields.WheelsTorque` goes with)
+    wheels: tuple = ()
 
     def inertia_with(self, moments) -> np.ndarray:
         """The body-frame inertia tensor with ``moments`` (about the centre of mass) in place of
@@ -68,14 +100,48 @@ class MJCFBody(RigidBody):
         """The inertia a run uses: the model's, or :meth:`inertia_with` a sweep's ``moments`` (None: the model's)."""
         return self.inertia if moments is None else self.inertia_with(moments)
 
-    def own_torque(self):
+    def own_torque(self, omega0=None, wheel_speeds=None):
         """The torque the model itself exerts on the body (None: none): on a ball joint, gravity's about the pivot
-        (:class:`~xcheck.fields.GravityTorque`, evaluated at every stage like any attitude-dependent torque)."""
+        (:class:`~xcheck.fields.GravityTorque`, evaluated at every stage like any attitude-dependent torque); a
+        gyrostat's wheels' (:class:`~xcheck.fields.WheelsTorque`), whose momentum is set by the body rate
+        ``omega0`` and the wheels' speeds relative to it (None: the model's, :attr:`Wheel.speed`)."""
+        if self.wheels:
+            return self.wheels_torque(omega0, wheel_speeds)
         if self.joint != "ball" or not np.any(self.gravity) or not np.any(self.centre):
             return None
         from .fields import GravityTorque
 
         return GravityTorque(self.centre, self.mass, self.gravity)
+
+    def wheel_speeds0(self, wheel_speeds=None) -> np.ndarray:
+        """The wheels' initial speeds relative to the body [rad/s]: ``wheel_speeds`` (one per wheel, in the MJCF's
+        order), or the model's own (:attr:`Wheel.speed`)."""
+        if wheel_speeds is None:
+            return np.array([w.speed for w in self.wheels], dtype=float)
+        speeds = np.asarray(wheel_speeds, dtype=float)
+        if speeds.shape != (len(self.wheels),) or not np.all(np.isfinite(speeds)):
+            raise ValueError(f"wheel_speeds: expected {len(self.wheels)} finite speeds [rad/s] (one per wheel of "
+                             f"{self.path}: {', '.join(w.name for w in self.wheels)}), got {np.ravel(speeds).tolist()}")
+        return speeds
+
+    def wheels_torque(self, omega0, wheel_speeds=None):
+        """:class:`~xcheck.fields.WheelsTorque` of the wheels from the body rate ``omega0`` [rad/s] and their
+        speeds: each wheel's absolute axial momentum ``p_i = J_s (a_i . w0 + Omega_i)``, and each motor's pulse."""
+        from .fields import WheelsTorque
+
+        w0 = np.zeros(3) if omega0 is None else np.asarray(omega0, dtype=float)
+        speeds = self.wheel_speeds0(wheel_speeds)
+        h0, commands, wheels = np.zeros(3), [], []
+        for wheel, speed in zip(self.wheels, speeds):
+            a = np.asarray(wheel.axis, dtype=float)
+            p0 = wheel.moment * (a @ w0 + speed)
+            h0 += p0 * a
+            index = None
+            if wheel.pulse is not None:
+                index = len(commands)
+                commands.append((a, *wheel.pulse))
+            wheels.append((a, wheel.moment, p0, index))
+        return WheelsTorque(h0, commands, wheels=wheels)
 
     def to_joint(self, q) -> np.ndarray:
         """The joint's ``qpos`` quaternion(s) of world attitude(s) ``q`` (a free joint's is the attitude itself)."""
@@ -158,6 +224,8 @@ class InitialState:
     keyframes: tuple
     notes: tuple = ()
     body: MJCFBody | None = None  # the body the state is of, as load_body reads it
+    #: a gyrostat's wheels' speeds relative to the body [rad/s] (the keyframe's; zero without one)
+    wheel_speeds: tuple = ()
 
 
 #: The body rate [rad/s], body frame, of a model that has no keyframe: about every axis, the largest about the
@@ -182,7 +250,9 @@ def initial_state(path, keyframe: str | None = None) -> InitialState:
         q0 = body.from_joint(np.asarray(model.qpos0[qs], dtype=float))
         return InitialState(q0, np.asarray(DEFAULT_RATE, dtype=float),
                             f"no <keyframe>: the body's pose in the MJCF and the default body rate "
-                            f"{list(DEFAULT_RATE)} rad/s (body frame)", None, names, body=body)
+                            f"{list(DEFAULT_RATE)} rad/s (body frame)" + (", the wheels at rest relative to it"
+                                                                          if body.wheels else ""),
+                            None, names, body=body, wheel_speeds=tuple(0.0 for _ in body.wheels))
     k = names.index(keyframe) if keyframe is not None else 0
     qpos, qvel = model.key_qpos[k], model.key_qvel[k]
     q_joint = np.asarray(qpos[qs], dtype=float)
@@ -198,8 +268,10 @@ def initial_state(path, keyframe: str | None = None) -> InitialState:
     if not np.any(omega0):
         notes.append("the keyframe's body rate is zero: the body does not turn, and every method is exact")
     which = f"keyframe {names[k]!r}" + (" (the first of the model's)" if keyframe is None and len(names) > 1 else "")
-    return InitialState(q0, omega0, f"the {which}: qpos and qvel of the {body.joint} joint", names[k],
-                        names, tuple(notes), body=body)
+    speeds = tuple(float(qvel[w.dof]) for w in body.wheels)
+    return InitialState(q0, omega0, f"the {which}: qpos and qvel of the {body.joint} joint"
+                        + (" and of the wheels' hinges" if body.wheels else ""), names[k],
+                        names, tuple(notes), body=body, wheel_speeds=speeds)
 
 
 def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
@@ -216,17 +288,23 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
         return mujoco.mj_id2name(model, obj, i) or f"#{i}"
 
     turning = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL))
+    hinge = int(mujoco.mjtJoint.mjJNT_HINGE)
+    roots = [j for j in range(model.njnt) if int(model.jnt_type[j]) in turning]
     for j in range(model.njnt):
-        if int(model.jnt_type[j]) not in turning:
+        if int(model.jnt_type[j]) not in (*turning, hinge):
             kind = mujoco.mjtJoint(model.jnt_type[j]).name.removeprefix("mjJNT_").lower()
             refuse(f"joint '{name(mujoco.mjtObj.mjOBJ_JOINT, j)}' is a {kind} joint: only one free joint or one ball "
-                   "joint is supported")
-    if model.njnt == 0:
+                   "joint is supported (and hinges of wheels on a free body)")
+    if not roots:
+        if model.njnt:
+            refuse(f"joint '{name(mujoco.mjtObj.mjOBJ_JOINT, 0)}' is a hinge joint with no free body to carry it: "
+                   "xcheck needs one body with <freejoint/> (or, for a top turning about a fixed point, a "
+                   "<joint type=\"ball\"/>); a hinge is only a wheel's, on a child of the free body")
         refuse("no free joint: xcheck needs one body with <freejoint/> (or, for a top turning about a fixed point, "
                "a <joint type=\"ball\"/>)")
-    if model.njnt > 1:
-        refuse(f"{model.njnt} joints: more than one moving body (xcheck needs one free or one ball joint)")
-    jnt = 0
+    if len(roots) > 1:
+        refuse(f"{len(roots)} free or ball joints: more than one moving body (xcheck needs one free or one ball joint)")
+    jnt = roots[0]
     joint = "free" if int(model.jnt_type[jnt]) == turning[0] else "ball"
     if joint == "ball" and model.jnt_limited[jnt]:
         refuse(f"the ball joint '{name(mujoco.mjtObj.mjOBJ_JOINT, jnt)}' has a range: a limit is a constraint "
@@ -238,8 +316,7 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
     parts = [b for b in range(1, model.nbody) if model.body_weldid[b] == body_id]
     if model.neq:
         refuse(f"{model.neq} equality constraint(s): out of scope (one free rigid body)")
-    if model.nu:
-        refuse(f"{model.nu} actuator(s): xcheck applies its own torques; remove the <actuator> section")
+    wheels = _wheels(model, body_id, joint, [j for j in range(model.njnt) if j != jnt], refuse, name)
     dof = int(model.jnt_dofadr[jnt])
     ndof = 6 if joint == "free" else 3
     for what, values in (("damping", model.dof_damping), ("armature", model.dof_armature),
@@ -272,19 +349,26 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
     elif joint == "ball":
         gravity = model.opt.gravity.copy()
 
-    if len(parts) == 1:  # one body: MuJoCo's own mass, principal moments and frame, as compiled
+    if len(parts) == 1 and not wheels:  # one body: MuJoCo's own mass, principal moments and frame, as compiled
         mass, moments, iquat = model.body_mass[body_id], model.body_inertia[body_id].copy(), model.body_iquat[body_id]
         com = model.body_ipos[body_id].copy()
         R = rot.quat_to_dcm(iquat)
         inertia = R @ np.diag(moments) @ R.T
     else:
-        mass, com, inertia = composite_inertia(model, body_id)
+        mass, com, inertia = composite_inertia(model, body_id, wheels=[model.jnt_bodyid[w.qpos_joint] for w in wheels])
+        for w in wheels:  # the gyrostat's inertia: the wheels' axial spin is their momentum's (WheelsTorque)
+            inertia = inertia - w.wheel.moment * np.outer(w.wheel.axis, w.wheel.axis)
         moments, axes = np.linalg.eigh(inertia)  # the principal moments and axes in the body frame (sorted)
         if np.linalg.det(axes) < 0:
             axes[:, 2] *= -1
         iquat = rot.dcm_to_quat(axes)
-        notes.append(f"{len(parts)} bodies without joints welded into one rigid body: mass {mass:g} kg, centre of "
-                     f"mass {np.round(com, 9).tolist()} m in the frame of '{body_name}'")
+        if len(parts) > 1:
+            notes.append(f"{len(parts)} bodies without joints welded into one rigid body: mass {mass:g} kg, centre "
+                         f"of mass {np.round(com, 9).tolist()} m in the frame of '{body_name}'")
+        if wheels:
+            notes.append(f"a gyrostat: {len(wheels)} axisymmetric wheel(s) ({', '.join(w.wheel.name for w in wheels)}); "
+                         "the inertia is the whole body's about its centre of mass less each wheel's axial moment, "
+                         "the wheels' momentum a torque of the model's own")
     centre, reference = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
     if joint == "ball":  # a top: it turns about the pivot, where the joint is (body frame)
         centre = com - model.jnt_pos[jnt]
@@ -310,26 +394,32 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
                         notes=tuple(notes), body_id=body_id, qpos_adr=int(model.jnt_qposadr[jnt]), dof_adr=dof,
                         model_moments=tuple(moments.tolist()), model_iquat=tuple(np.asarray(iquat).tolist()),
                         joint=joint, centre=tuple(centre.tolist()), gravity=tuple(gravity.tolist()),
-                        reference_quat=tuple(reference.tolist()))
+                        reference_quat=tuple(reference.tolist()), wheels=tuple(w.wheel for w in wheels))
     except ValueError as exc:
         raise ModelError(f"{where}: body '{body_name}': {exc}") from None
     return model, body
 
 
-def composite_inertia(model, root: int) -> tuple[float, np.ndarray, np.ndarray]:
-    """A body and the bodies below it in the tree that have no joints, as one rigid body (issue 27): its mass
-    [kg], centre of mass [m] and inertia tensor about that centre [kg m^2], both in ``root``'s frame. Each part's
-    pose in the root's frame is the chain of its ``body_pos``/``body_quat`` (fixed: no joints), its own inertia is
-    ``body_inertia`` about its centre (``body_ipos``) in its principal frame (``body_iquat``); the sum is the
-    parallel-axis theorem, I_C = sum_b [R_b I_b R_b^T + m_b (|d_b|^2 E - d_b d_b^T)], d_b = c_b - c."""
+def body_poses(model, root: int, wheels=()) -> dict:
+    """``{body: (position, rotation)}`` in ``root``'s frame of ``root``, the bodies below it without joints, and the
+    ``wheels`` (bodies on a hinge) at their joint's zero: the chain of ``body_pos``/``body_quat``."""
     pose = {root: (np.zeros(3), np.eye(3))}
-    order = [root]
     for b in range(root + 1, model.nbody):  # MuJoCo numbers a parent before its children
         parent = int(model.body_parentid[b])
-        if parent in pose and not model.body_jntnum[b]:
+        if parent in pose and (not model.body_jntnum[b] or b in wheels):
             p, R = pose[parent]
             pose[b] = (p + R @ model.body_pos[b], R @ rot.quat_to_dcm(model.body_quat[b]))
-            order.append(b)
+    return pose
+
+
+def composite_inertia(model, root: int, wheels=()) -> tuple[float, np.ndarray, np.ndarray]:
+    """A body and the bodies below it in the tree that have no joints (and the ``wheels``, as if locked), as one
+    rigid body (issue 27): its mass [kg], centre of mass [m] and inertia tensor about that centre [kg m^2], both in
+    ``root``'s frame. Each part's pose in the root's frame is :func:`body_poses`', its own inertia is
+    ``body_inertia`` about its centre (``body_ipos``) in its principal frame (``body_iquat``); the sum is the
+    parallel-axis theorem, I_C = sum_b [R_b I_b R_b^T + m_b (|d_b|^2 E - d_b d_b^T)], d_b = c_b - c."""
+    pose = body_poses(model, root, wheels)
+    order = list(pose)
     masses = np.array([model.body_mass[b] for b in order])
     centres = np.array([pose[b][0] + pose[b][1] @ model.body_ipos[b] for b in order])
     mass = float(masses.sum())
@@ -340,6 +430,113 @@ def composite_inertia(model, root: int) -> tuple[float, np.ndarray, np.ndarray]:
         d = c - com
         inertia += R @ np.diag(model.body_inertia[b]) @ R.T + m * (d @ d * np.eye(3) - np.outer(d, d))
     return mass, com, 0.5 * (inertia + inertia.T)
+
+
+@dataclass(frozen=True)
+class _Found:
+    wheel: Wheel
+    qpos_joint: int
+
+
+def _wheels(model, root: int, joint: str, hinges, refuse, name) -> list:
+    """The wheels of a gyrostat (issue 28): every hinge must turn a wheel, an axisymmetric body whose axis is the
+    hinge's through its centre of mass, on the free body (or a part welded to it), with nothing below it; motors
+    only on wheels (:data:`ALLOWED_ACTUATORS`). Refused by name otherwise."""
+    J = mujoco.mjtObj.mjOBJ_JOINT
+    if hinges and joint != "free":
+        refuse(f"hinge joint '{name(J, hinges[0])}' on a top: wheels are modelled on a free body only")
+    wheel_bodies = [int(model.jnt_bodyid[j]) for j in hinges]
+    pose = body_poses(model, root, wheel_bodies)
+    found = []
+    for j, b in zip(hinges, wheel_bodies):
+        jname, bname = name(J, j), name(mujoco.mjtObj.mjOBJ_BODY, b)
+        where = f"hinge joint '{jname}' (body '{bname}'; a hinge is a wheel's here)"
+        parent = int(model.body_parentid[b])
+        if model.body_weldid[parent] != root or b not in pose:
+            refuse(f"{where}: a hinge must turn a wheel on the free body itself (or on a part welded to it); "
+                   "this one is elsewhere in the tree")
+        if model.body_jntnum[b] != 1:
+            refuse(f"{where}: a wheel turns on one hinge; body '{bname}' has {model.body_jntnum[b]} joints")
+        if any(int(model.body_parentid[c]) == b for c in range(b + 1, model.nbody)):
+            refuse(f"{where}: a wheel has no bodies below it; put its parts' geoms and inertia in body '{bname}'")
+        dof = int(model.jnt_dofadr[j])
+        for what, values in (("damping", model.dof_damping), ("armature", model.dof_armature),
+                             ("frictionloss", model.dof_frictionloss)):
+            if values[dof] != 0:
+                refuse(f"{where} has {what} {values[dof]:g}: a wheel's axle is frictionless here (its motor is its only "
+                       "torque); set it to 0")
+        if model.jnt_stiffness[j] != 0 or model.jnt_limited[j]:
+            refuse(f"{where} has {'stiffness' if model.jnt_stiffness[j] else 'a range'}: a wheel turns freely; remove it")
+        axis = np.asarray(model.jnt_axis[j], dtype=float)
+        axis = axis / np.linalg.norm(axis)
+        d = model.body_ipos[b] - model.jnt_pos[j]
+        off = np.linalg.norm(d - (d @ axis) * axis)
+        if off > 1e-9 * (1.0 + np.linalg.norm(d)):
+            refuse(f"{where}: its axis misses the wheel's centre of mass by {off:.3g} m; a wheel's hinge passes "
+                   "through its centre of mass (a balanced wheel), or it would shake the body")
+        R = rot.quat_to_dcm(model.body_iquat[b])
+        Iw = R @ np.diag(model.body_inertia[b]) @ R.T
+        Js = float(axis @ Iw @ axis)
+        Jt = 0.5 * (np.trace(Iw) - Js)
+        asym = np.linalg.norm(Iw - Jt * np.eye(3) - (Js - Jt) * np.outer(axis, axis))
+        if asym > 1e-9 * np.linalg.norm(Iw):
+            refuse(f"{where}: the wheel is not axisymmetric about its hinge (its inertia {np.round(Iw, 12).tolist()} "
+                   "kg m^2 in its frame has no two equal moments about that axis); xcheck models balanced, "
+                   "axisymmetric wheels")
+        speed = float(model.key_qvel[0][dof]) if model.nkey else 0.0
+        found.append(_Found(Wheel(name=jname, axis=tuple((pose[b][1] @ axis).tolist()), moment=Js, dof=dof,
+                                  qpos=int(model.jnt_qposadr[j]), speed=speed), j))
+    by_joint = {f.qpos_joint: k for k, f in enumerate(found)}
+    for i in range(model.nu):
+        aname = name(mujoco.mjtObj.mjOBJ_ACTUATOR, i)
+        target = int(model.actuator_trnid[i, 0])
+        plain = (int(model.actuator_trntype[i]) == int(mujoco.mjtTrn.mjTRN_JOINT) and target in by_joint
+                 and int(model.actuator_dyntype[i]) == int(mujoco.mjtDyn.mjDYN_NONE)
+                 and int(model.actuator_gaintype[i]) == int(mujoco.mjtGain.mjGAIN_FIXED)
+                 and int(model.actuator_biastype[i]) == int(mujoco.mjtBias.mjBIAS_NONE))
+        if not plain:
+            refuse(f"actuator '{aname}': xcheck applies its own torques; allowed are only {ALLOWED_ACTUATORS}. A "
+                   "velocity or position servo's result depends on its gains: not modelled")
+        k = by_joint[target]
+        if found[k].wheel.actuator >= 0:
+            refuse(f"actuator '{aname}': wheel '{found[k].wheel.name}' has a motor already")
+        gain = float(model.actuator_gear[i, 0] * model.actuator_gainprm[i, 0])
+        if gain == 0:
+            refuse(f"actuator '{aname}': its gear times gain is 0: it exerts nothing")
+        found[k] = _Found(_replace(found[k].wheel, actuator=i, gain=gain), found[k].qpos_joint)
+    actuators = {name(mujoco.mjtObj.mjOBJ_ACTUATOR, f.wheel.actuator): k for k, f in enumerate(found)
+                 if f.wheel.actuator >= 0}
+    for n in range(model.nnumeric):
+        nname = name(mujoco.mjtObj.mjOBJ_NUMERIC, n)
+        if not nname.startswith(PULSE_NUMERIC):
+            continue
+        aname = nname[len(PULSE_NUMERIC):]
+        if aname not in actuators:
+            refuse(f"<numeric name=\"{nname}\">: no motor named '{aname}' on a wheel (motors: "
+                   f"{', '.join(actuators) or 'none'})")
+        adr, size = int(model.numeric_adr[n]), int(model.numeric_size[n])
+        values = model.numeric_data[adr:adr + size]
+        if size != 3 or not np.all(np.isfinite(values)) or not 0 <= values[1] < values[2]:
+            refuse(f"<numeric name=\"{nname}\">: expected data=\"peak t0 t1\" (a torque pulse of peak [N m] over "
+                   f"[t0, t1] s, 0 <= t0 < t1), got {values.tolist()}")
+        k = actuators[aname]
+        i = found[k].wheel.actuator
+        peak = float(values[0])
+        for what, limited, lo_hi, value in (("ctrlrange", model.actuator_ctrllimited[i], model.actuator_ctrlrange[i],
+                                             peak / found[k].wheel.gain),
+                                            ("forcerange", model.actuator_forcelimited[i], model.actuator_forcerange[i],
+                                             peak)):
+            if limited and not (lo_hi[0] <= min(0.0, value) and max(0.0, value) <= lo_hi[1]):
+                refuse(f"actuator '{aname}': its pulse needs {value:g} within its {what} {lo_hi.tolist()}")
+        found[k] = _Found(_replace(found[k].wheel, pulse=(peak, float(values[1]), float(values[2]))),
+                          found[k].qpos_joint)
+    return found
+
+
+def _replace(wheel: Wheel, **changes) -> Wheel:
+    from dataclasses import replace
+
+    return replace(wheel, **changes)
 
 
 def _possible_contact(model):

@@ -20,7 +20,7 @@ from . import rotations as rot
 from .body import principal_axes, validate_inertia
 from .trajectory import check_initial_state, continuous_quaternions
 
-__all__ = ["exact_torque_free", "exact_reference", "exact_why_not", "lagrange_top", "lagrange_why_not", "dop853", "dop853_solution", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL",
+__all__ = ["exact_torque_free", "exact_reference", "exact_why_not", "exact_gyrostat", "gyrostat_why_not", "lagrange_top", "lagrange_why_not", "dop853", "dop853_solution", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL",
            "ReferenceFailure", "solve_bounded"]
 
 #: Principal moments closer than this (relative to the largest) are treated as equal (axisymmetry).
@@ -190,21 +190,75 @@ def lagrange_why_not(inertia, centre, force) -> str | None:
     c, F = np.asarray(centre, dtype=float), np.asarray(force, dtype=float)
     if not np.any(c) or not np.any(F):
         return "no torque: the torque-free solution applies"
-    e3 = c / np.linalg.norm(c)
-    C = e3 @ I @ e3
-    A = 0.5 * (np.trace(I) - C)
-    if np.linalg.norm(I - A * np.eye(3) - (C - A) * np.outer(e3, e3)) > EQUAL_MOMENTS_RTOL * 1e2 * np.linalg.norm(I):
+    if symmetric_moments(I, c) is None:
         return ("the inertia about the pivot is not symmetric about the axis through the centre of mass (Lagrange's "
                 "top): no closed form; use 'dop853'")
     return None
 
 
+def symmetric_moments(inertia, axis) -> tuple[float, float] | None:
+    """``(A, C)`` when the inertia tensor is ``A (E - e e^T) + C e e^T`` about the direction ``e`` of ``axis`` (an
+    axisymmetric body, to :data:`EQUAL_MOMENTS_RTOL` x 100 of its norm): the transverse and the axial moment."""
+    I = np.asarray(inertia, dtype=float)
+    e = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    C = e @ I @ e
+    A = 0.5 * (np.trace(I) - C)
+    if np.linalg.norm(I - A * np.eye(3) - (C - A) * np.outer(e, e)) > EQUAL_MOMENTS_RTOL * 1e2 * np.linalg.norm(I):
+        return None
+    return float(A), float(C)
+
+
+def gyrostat_why_not(inertia, h) -> str | None:
+    """Why a gyrostat with the constant internal momentum ``h`` (body components) has no closed form here, or None
+    when it has one (:func:`exact_gyrostat`): the inertia symmetric about ``h``'s direction."""
+    I = validate_inertia(inertia)
+    h = np.asarray(h, dtype=float)
+    if np.any(h) and symmetric_moments(I, h) is None:
+        return ("the inertia (less the wheels' axial moments) is not symmetric about the wheels' momentum: the "
+                "gyrostat's motion is elliptic (Volterra), not in closed form here; use 'dop853'")
+    return None
+
+
+def exact_gyrostat(inertia, q0, omega0, t, h):
+    """Exact motion of an axisymmetric gyrostat (issue 28): ``I w' + w x (I w + h) = 0`` with ``h`` constant along
+    the symmetry axis ``e`` of ``I`` (a free wheel on it, or one turning at a constant speed). Like the
+    torque-free axisymmetric body (:func:`_axisymmetric`) with the body-cone rate shifted: the momentum ``H = I w + h``
+    is fixed in the world, ``w = H / A + (w_e - H_e / A) e``, so ``R(t) = exp(t [H_world]x / A) R0 exp(-t lam [e]x)``
+    with ``lam = ((C - A) w_e + |h|) / A`` (``A`` the transverse moment, ``C`` the axial one)."""
+    I, q0, omega0, t = _inputs(inertia, q0, omega0, t)
+    why = gyrostat_why_not(I, h)
+    if why is not None:
+        raise ReferenceFailure(f"the exact reference: {why}")
+    h = np.asarray(h, dtype=float)
+    if not np.any(h):
+        return exact_torque_free(I, q0, omega0, t)
+    e = h / np.linalg.norm(h)
+    F = _frame_with_z(e)  # a frame of the body whose z is e: principal, as I is symmetric about e
+    qF = rot.dcm_to_quat(F)
+    A, C = symmetric_moments(I, e)
+    w = F.T @ omega0
+    H = np.array([A * w[0], A * w[1], C * w[2] + np.linalg.norm(h)])  # in the frame F
+    qf0 = rot.quat_mul(q0, qF)
+    lam = ((C - A) * w[2] + np.linalg.norm(h)) / A
+    z = np.array([0.0, 0.0, 1.0])
+    world_turn = rot.rotvec_to_quat(t[:, None] * (rot.quat_rotate(qf0, H) / A))
+    body_turn = rot.rotvec_to_quat(-t[:, None] * lam * z)
+    q = rot.quat_mul(rot.quat_mul(world_turn, qf0), body_turn)
+    omega = rot.quat_rotate(rot.quat_conj(body_turn), np.broadcast_to(H / A, (len(t), 3))) - lam * z
+    return continuous_quaternions(rot.quat_mul(q, rot.quat_conj(qF))), omega @ F.T
+
+
 def exact_why_not(inertia, torque) -> str | None:
     """Why a body under ``torque`` (None: torque free) has no exact reference here, or None when it has one: torque
-    free (:func:`exact_torque_free`), or Lagrange's top (:func:`lagrange_top`: a torque ``c x (R^T F)`` with ``c``
-    and ``F`` fixed, the inertia symmetric about ``c``)."""
+    free (:func:`exact_torque_free`), Lagrange's top (:func:`lagrange_top`: a torque ``c x (R^T F)`` with ``c``
+    and ``F`` fixed, the inertia symmetric about ``c``), or an axisymmetric gyrostat whose wheels' momentum is
+    constant, along the axis (:func:`exact_gyrostat`)."""
     if torque is None:
         return None
+    if getattr(torque, "conserves_momentum", False) and not getattr(torque, "terms", None):  # wheels alone
+        if len(torque.commands):
+            return "a motor changes the wheels' momentum: no closed form; use 'dop853'"
+        return gyrostat_why_not(inertia, torque.h0)
     form = torque.fixed_form() if hasattr(torque, "fixed_form") else None
     if form is None:
         return f"'exact' is the torque-free solution or Lagrange's top, and the torque is {torque.describe()}"
@@ -218,6 +272,8 @@ def exact_reference(inertia, q0, omega0, t, torque=None):
     why = exact_why_not(inertia, torque)
     if why is not None:
         raise ReferenceFailure(f"the exact reference: {why}")
+    if getattr(torque, "conserves_momentum", False):
+        return exact_gyrostat(inertia, q0, omega0, t, torque.h0)
     centre, force = torque.fixed_form()
     return lagrange_top(inertia, q0, omega0, t, centre=centre, force=force)
 

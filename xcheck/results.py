@@ -47,6 +47,9 @@ class Run:
     energy_drift: float | None = None
     momentum_drift: float | None = None
     spin_drift: float | None = None  # a symmetric top's spin momentum about its axis (None: not conserved)
+    #: a gyrostat's largest wheel-speed error over the run [rad/s], relative to the body (an engine's own wheels,
+    #: ours from the wheels' momentum and the body rate); None without wheels
+    wheel_speed_error: float | None = None
     norm_drift: float | None = None
     wall_time: float | None = None
     steps_per_second: float | None = None
@@ -69,7 +72,7 @@ class Run:
 
     def to_json(self) -> dict:
         out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "message"
-               and not (f.name in ("rtol", "spin_drift") and getattr(self, f.name) is None)}
+               and not (f.name in ("rtol", "spin_drift", "wheel_speed_error") and getattr(self, f.name) is None)}
         if not self.ok or self.message:  # a failure's reason, or a good run's note (an engine's rounded clock)
             out["message"] = self.message
         return out

@@ -30,8 +30,10 @@ class RunContext:
     sequence: str = "323"
     model_moments: tuple | None = None
     #: what an engine that simulates the MJCF applies: ``torque`` less the model's own (a top's gravity about its
-    #: pivot, which such an engine exerts itself); "same": ``torque``
+    #: pivot, a gyrostat's wheels, which such an engine exerts itself); "same": ``torque``
     engine_torque: object = "same"
+    #: a gyrostat's wheels' initial speeds relative to the body [rad/s] (None: the model's)
+    wheel_speeds: tuple | None = None
 
     @property
     def applied(self):
@@ -102,7 +104,7 @@ def _mujoco(integrator):
 
         return simulate(ctx.model_path, integrator=integrator, q0=ctx.q0, omega0=ctx.omega0, dt=dt,
                         duration=ctx.duration, torque=ctx.applied,
-                        inertia_moments=ctx.model_moments)
+                        inertia_moments=ctx.model_moments, wheel_speeds=ctx.wheel_speeds)
     return run
 
 

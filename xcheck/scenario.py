@@ -134,6 +134,9 @@ class Scenario:
     inertia: tuple | None = None
     #: the [determination] table (:class:`xcheck.determination.sensors.DeterminationSpec`); None: the scenario has none
     determination: object = None
+    #: a gyrostat's wheels' initial speeds relative to the body [rad/s], in the MJCF's order; None: the model's own
+    #: (its first keyframe's, else zero)
+    wheel_speeds: tuple | None = None
     #: what xcheck assumed to make the scenario (one from an MJCF file alone: its initial state's source, the
     #: duration, the torque, the reference, the Euler sequence); the report states them. () for a scenario file
     assumptions: tuple = ()
@@ -316,6 +319,11 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
     if euler0 is not None:
         q0 = rot.euler_to_quat(euler0, sequence)
         omega0 = rot.euler_rates_to_omega(euler0, rates, sequence)
+    wheel_speeds = None
+    if ini.has("wheel_speeds"):
+        wheel_speeds = tuple(float(v) for v in ini.get("wheel_speeds", "numbers"))
+        if not all(np.isfinite(wheel_speeds)):
+            ini.fail("wheel_speeds", f"expected finite speeds [rad/s], got {list(wheel_speeds)}")
     ini.finish()
 
     torque = None
@@ -389,7 +397,7 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
                         quick_steps=quick_steps, tolerances=tolerances, quick_tolerances=quick_tolerances,
                         adaptive_step=adaptive_step, methods=methods, reference=reference,
                         reference_method=reference_method, reference_dt=reference_dt, checks=checks,
-                        determination=determination)
+                        determination=determination, wheel_speeds=wheel_speeds)
     if check_model:
         check_scenario_model(scenario)
     return scenario
@@ -404,6 +412,24 @@ def check_scenario_model(scenario: Scenario) -> None:
         body = load_body(scenario.model)
     except ModelError as exc:
         raise ScenarioError(f"{scenario.path}: model: {exc}") from None
+    if scenario.wheel_speeds is not None and not body.wheels:
+        raise ScenarioError(f"{scenario.path}: [initial] wheel_speeds: the model {scenario.model} has no wheels")
+    if body.wheels:
+        from .runners import RUNNERS
+
+        basilisk = [m for m in (scenario.methods or RUNNERS) if m in RUNNERS and RUNNERS[m].engine == "basilisk"]
+        if scenario.methods is not None and basilisk:
+            raise ScenarioError(f"{scenario.path}: [study] methods: {', '.join(basilisk)}: a body with wheels needs "
+                                "Basilisk's reaction-wheel effector, which xcheck does not drive yet")
+        if scenario.methods is None:  # every method that can run it
+            scenario.methods = [m for m in RUNNERS if RUNNERS[m].engine != "basilisk"]
+            if basilisk:
+                scenario.assumptions = (*scenario.assumptions, "Basilisk's methods are left out: a body with wheels "
+                                        "needs its reaction-wheel effector, which xcheck does not drive yet")
+    try:
+        body.wheel_speeds0(scenario.wheel_speeds)
+    except ValueError as exc:
+        raise ScenarioError(f"{scenario.path}: [initial] {exc}") from None
     try:
         torque = build_torque(scenario, body)
     except ValueError as exc:
@@ -419,8 +445,8 @@ def check_scenario_model(scenario: Scenario) -> None:
             except ReferenceFailure as exc:
                 why = str(exc)
         if why is not None:
-            raise ScenarioError(f"{scenario.path}: [study] reference: 'exact' is the torque-free solution or Lagrange's "
-                                f"top, and the model exerts a torque of its own ({torque.describe()}): {why}")
+            raise ScenarioError(f"{scenario.path}: [study] reference: 'exact' is the torque-free solution, Lagrange's "
+                                f"top or the axisymmetric gyrostat, and the body is under {torque.describe()}: {why}")
 
 
 def _read_torque(tq: _Reader) -> dict:
@@ -479,7 +505,7 @@ def build_torque(scenario: Scenario, body):
 def torque_parts(scenario: Scenario, body):
     """``(own, applied)``: the torque the model exerts itself (a top's gravity; an engine that simulates the MJCF
     exerts it on its own) and the scenario's ``[torque]``, each a :class:`~xcheck.fields.TorqueModel` or None."""
-    return body.own_torque(), _applied_torque(scenario, body)
+    return body.own_torque(scenario.omega0, scenario.wheel_speeds), _applied_torque(scenario, body)
 
 
 def _applied_torque(scenario: Scenario, body):
@@ -598,7 +624,7 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
     name = re.sub(r"[^A-Za-z0-9_.-]+|\.{2,}", "-", stem).strip("-._")[:100] or "model"  # check_name's identifier
     from .reference import exact_why_not
 
-    own = body.own_torque()
+    own = body.own_torque(state.omega0, state.wheel_speeds)
     why_not = exact_why_not(body.inertia, own)
     reference = "exact" if why_not is None else "dop853"
     margins = None
@@ -616,7 +642,9 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         reference_words = "reference: the exact torque-free solution (closed form)"
     else:
         torque_words = f"the model's own torque only: {own.describe()}"
-        reference_words = ("reference: the exact heavy symmetric top (Lagrange's, closed form)" if reference == "exact"
+        exact_words = ("the exact axisymmetric gyrostat (closed form)" if body.wheels
+                       else "the exact heavy symmetric top (Lagrange's, closed form)")
+        reference_words = (f"reference: {exact_words}" if reference == "exact"
                            else f"reference: DOP853 at rtol 1e-13 ({why_not})")
     assumptions = [f"initial state: {state.source}", *state.notes, *body.notes,
                    f"duration {MODEL_DURATION:g} s (the default); {torque_words}", reference_words]
@@ -640,6 +668,13 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
                                f"run ({margins[sequence]:.1f} deg)")
     steps = [v for v in DEFAULT_STEPS if v <= MODEL_DURATION]
     quick = [v for v in QUICK_STEPS if v <= MODEL_DURATION]
+    wheel_methods = []
+    if body.wheels:  # Basilisk's hub has wheels of its own (reactionWheelStateEffector), not yet wired in
+        from .runners import RUNNERS
+
+        wheel_methods = [m for m in RUNNERS if RUNNERS[m].engine != "basilisk"]
+        assumptions.append("Basilisk's methods are left out: a body with wheels needs its reaction-wheel effector, "
+                           "which xcheck does not drive yet")
     ref = model_ref if model_ref is not None else str(model)
     fail_list = "[" + ", ".join(f'"{m}"' for m in expected_to_fail) + "]"
     lines = [
@@ -647,7 +682,7 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         "# scenario file, with its value for this model. Edit what you know better; xcheck report THIS_FILE runs it.",
         *(f"#   - {a}" for a in assumptions),
         f"name = {json.dumps(name)}",
-        f"description = {json.dumps(f'{model.name}, ' + state.source.split(':')[0] + (', torque free' if own is None else ', a top under gravity'))}",
+        f"description = {json.dumps(f'{model.name}, ' + state.source.split(':')[0] + (', torque free' if own is None else ', with wheels' if body.wheels else ', a top under gravity'))}",
         f"model = {json.dumps(ref)}   # the MJCF file (relative to this file)",
         f"duration = {MODEL_DURATION!r}   # [s]",
         "",
@@ -656,6 +691,8 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         f"quaternion = {_toml_list(state.q0)}   # [w, x, y, z], body -> world",
         f"angular_velocity = {_toml_list(state.omega0)}   # [rad/s], body frame",
         f"euler_sequence = {json.dumps(sequence)}   # the sequence euler-rk4 integrates",
+        *([f"wheel_speeds = {_toml_list(state.wheel_speeds)}   # [rad/s], each wheel's relative to the body "
+           f"({', '.join(w.name for w in body.wheels)})"] if body.wheels else []),
         "",
         "# [torque]   # none: torque free. A constant torque [N m] in body components:",
         "# kind = \"constant\"",
@@ -672,7 +709,9 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         f"quick_tolerances = {_toml_list(QUICK_TOLERANCES)}",
         f"adaptive_step = {default_adaptive_step(state.omega0, MODEL_DURATION)!r}   # [s], an adaptive method's output "
         f"step (it turns the body by at most {ADAPTIVE_TURN:g} rad at the initial rate)",
-        "# methods = [\"lie-rkmk4\", \"mujoco-rk4\"]   # every method when left out (xcheck list)",
+        *([f"methods = [{', '.join(json.dumps(m) for m in wheel_methods)}]   # Basilisk's left out: its "
+           "wheels are not wired into xcheck yet"] if body.wheels else
+          ["# methods = [\"lie-rkmk4\", \"mujoco-rk4\"]   # every method when left out (xcheck list)"]),
         "reference_method = \"lie-rkmk4\"   # for reference = \"fine\"",
         "reference_dt = 0.0001   # [s], for reference = \"fine\"",
         "",

@@ -280,6 +280,9 @@ def _torque_input(torque, sc, sim, b, ns: int, n: int):
         inputs = [_torque_input(term, sc, sim, b, ns, n) for term in torque.terms]
         orders = [order for _, order in inputs if order is not None]
         return " + ".join(note for note, _ in inputs), (min(orders) if orders else None)
+    if getattr(torque, "conserves_momentum", False):  # a gyrostat's wheels: Basilisk's own effector is their model
+        raise ValueError("Basilisk: a body with wheels needs its reactionWheelStateEffector, which xcheck does not "
+                         "drive yet (issue 28); leave Basilisk's methods out of this scenario")
     if isinstance(torque, ConstantTorque):
         ext = _ext_torque(sc, sim, b)
         ext.extTorquePntB_B = [[float(x)] for x in torque.P]

@@ -126,7 +126,7 @@ def _with_moments(m, body, inertia_moments):
 
 
 def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, torque=None,
-             torque_mode: str = "callback", inertia_moments=None) -> Trajectory:
+             torque_mode: str = "callback", inertia_moments=None, wheel_speeds=None) -> Trajectory:
     """Run MuJoCo on one free body.
 
     Parameters
@@ -144,10 +144,14 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
     inertia_moments : None or (3,)
         Principal moments [kg m^2] written into the compiled model's ``body_inertia`` (the principal axes,
         ``body_iquat``, kept): a sweep's inertia axis without rewriting the MJCF. None: the MJCF's own.
+    wheel_speeds : None or (k,)
+        A gyrostat's wheels' initial speeds relative to the body [rad/s] (None: the model's,
+        :attr:`xcheck.models.Wheel.speed`); their motors' pulses are set in ``ctrl`` at every stage, like a torque.
 
     Returns
     -------
-    Trajectory, with the MuJoCo version in ``extras["mujoco_version"]``.
+    Trajectory, with the MuJoCo version in ``extras["mujoco_version"]`` (and a gyrostat's wheels' speeds relative
+    to the body in ``extras["wheel_speeds"]``, (n, k)).
     """
     if integrator not in INTEGRATORS:
         raise ValueError(f"integrator: unknown {integrator!r}; expected one of {', '.join(INTEGRATORS)}")
@@ -168,9 +172,11 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
     qs, ws = body.quat_slice, body.rate_slice
     d.qpos[qs] = body.to_joint(q0)  # a ball joint's qpos is relative to the body's reference orientation
     d.qvel[ws] = omega0
+    for wheel, speed in zip(body.wheels, body.wheel_speeds0(wheel_speeds)):
+        d.qvel[wheel.dof] = speed
     t = time_grid(n, float(dt), float(duration))
     with mujoco_warnings() as messages:
-        if torque is None:
+        if torque is None and not any(w.pulse for w in body.wheels):
             qpos, qvel = _rollout_free(m, d, n, last_h)
         else:
             qpos, qvel = _stepped(m, d, n, last_h, body, torque, torque_mode)
@@ -180,8 +186,10 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
     q = continuous_quaternions(body.from_joint(qpos[:stop, qs]))
     # its forward dynamics: four evaluations a step in RK4, one in the Euler variants
     evaluations = (4 if integrator == "rk4" else 1) * (stop - 1)
-    traj = Trajectory(t=t[:stop], q=q, omega=qvel[:stop, ws].copy(), method=method, dt=float(dt),
-                      extras={"mujoco_version": mujoco.__version__, "evaluations": evaluations})
+    extras = {"mujoco_version": mujoco.__version__, "evaluations": evaluations}
+    if body.wheels:
+        extras["wheel_speeds"] = qvel[:stop, [w.dof for w in body.wheels]].copy()
+    traj = Trajectory(t=t[:stop], q=q, omega=qvel[:stop, ws].copy(), method=method, dt=float(dt), extras=extras)
     if messages or k is not None:
         traj.status = "failed"
         where = f"at t = {t[k]:.6g} s" if k is not None else "during the run"
@@ -231,13 +239,19 @@ def _stepped(m, d, n, last_h, body, torque, torque_mode):
         def attitude():
             q_view[:] = body.from_joint(joint_q)
             return q_view
-    if isinstance(torque, TorqueModel):
+    motors = _motor_commands(body, d)
+    if torque is None:
+        def body_torque(t, out):
+            motors(t)
+    elif isinstance(torque, TorqueModel):
         kind, P, T = torque.kernel_data()
 
         def body_torque(t, out):
+            motors(t)
             torque_eval(kind, P, T, t, attitude(), w_view, out)
     else:
         def body_torque(t, out):
+            motors(t)
             q = attitude()
             out[:] = np.asarray(torque(t, q / np.linalg.norm(q), w_view.copy()), dtype=float)
 
@@ -261,6 +275,20 @@ def _stepped(m, d, n, last_h, body, torque, torque_mode):
 
     _loop(m, d, n, last_h, qpos_out, qvel_out, before_step)
     return qpos_out, qvel_out
+
+
+def _motor_commands(body, d):
+    """``set(t)``: a gyrostat's motors' ``ctrl`` at time ``t`` (their pulses, :func:`xcheck.fields.kernel.pulse`,
+    divided by each motor's gain); nothing to do without one. Called with the torque, at every stage."""
+    from ..fields.kernel import pulse
+
+    driven = [(w.actuator, w.gain, *w.pulse) for w in body.wheels if w.pulse is not None]
+    ctrl = d.ctrl
+
+    def set_commands(t):
+        for actuator, gain, peak, t0, t1 in driven:
+            ctrl[actuator] = pulse(peak, t0, t1, t)[1] / gain
+    return set_commands if driven else (lambda t: None)
 
 
 def _loop(m, d, n, last_h, qpos_out, qvel_out, before_step=None):

@@ -41,6 +41,7 @@ from .models import (
                      SumTorque,
                      TorqueModel,
                      UniformField,
+                     WheelsTorque,
                      WorldFieldTable,
                      magnetic_torque,
 )
@@ -56,7 +57,7 @@ from .tables import load_field_table, write_field_table
 
 __all__ = [
     "MU0", "FIELDS", "Field", "Key", "TorqueModel", "ConstantTorque", "MagneticTorque", "GravityTorque",
-    "SumTorque", "GravityGradientTorque",
+    "SumTorque", "GravityGradientTorque", "WheelsTorque",
     "BodyFieldTable",
     "WorldFieldTable", "UniformField", "OrbitDipoleField", "IGRFField", "torque_eval", "torque_needs_attitude",
     "magnetic_torque", "load_field_table", "write_field_table", "orbit_position", "RAX1_ORBIT",

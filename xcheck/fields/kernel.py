@@ -1,7 +1,7 @@
 """The compiled torque kernel: every torque model evaluated from plain arrays, without a Python call per stage.
 
 A torque model is an integer *kind* (:data:`FREE`, :data:`CONSTANT`, :data:`MAGNETIC`, :data:`GRAVITY_GRADIENT`,
-:data:`SUM` of those), a parameter vector ``P``
+:data:`WHEELS`, :data:`SUM` of those), a parameter vector ``P``
 and a table ``T`` (2-D, empty when unused). ``P`` is read by named slot:
 
 ==============  ==========================================================================================
@@ -37,6 +37,7 @@ MAGNETIC = 2
 SUM = 3  # torques that compose: P = [n, attitude-dependent (0/1), (kind, start, length) per term, then each term's
 #          own P]; T the one table
 GRAVITY_GRADIENT = 4  # P = [I (9, row by row, body frame), orbit radius, mean motion, inclination, RAAN, u0]
+WHEELS = 5  # a gyrostat's wheels: P = [h0 (3), n, then per motor command: axis (3), peak torque, t0, t1]
 
 # slots of P
 VECTOR = 0
@@ -112,6 +113,44 @@ def gravity_gradient_torque(P, t, q, out):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def pulse(u, t0, t1, t):
+    """A motor's torque pulse ``u sin^2(pi s)``, ``s = (t - t0) / (t1 - t0)`` on ``[t0, t1]`` and zero outside:
+    ``(its integral from t0 to t, its value)``. The value and its slope are continuous (zero at both ends), so a
+    step that ends at ``t0`` or ``t1`` sees a smooth torque on either side and keeps its order."""
+    if t <= t0:
+        return 0.0, 0.0
+    d = t1 - t0
+    if t >= t1:
+        return 0.5 * u * d, 0.0
+    s = (t - t0) / d
+    sn = np.sin(np.pi * s)
+    return u * d * (0.5 * s - np.sin(2.0 * np.pi * s) / (4.0 * np.pi)), u * sn * sn
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def wheels_torque(P, t, w, out):
+    """What a gyrostat's wheels do to the body (issue 28): ``-w x h(t) - h'(t)`` [N m], body components, so that
+    ``I w' + w x (I w + h) = tau - h'`` (the gyrostat form of Euler's equation) is the rigid body's with this torque
+    added. ``h`` is the wheels' absolute axial momentum along their axes, ``h0`` plus each motor command's pulse
+    integral (:func:`pulse`), ``I`` the body's inertia less each wheel's axial moment about its axis (see
+    :class:`xcheck.fields.WheelsTorque`): ``h`` is then a function of time alone."""
+    hx, hy, hz = P[0], P[1], P[2]
+    dx = dy = dz = 0.0
+    for k in range(int(P[3])):
+        b = 4 + 6 * k
+        integral, value = pulse(P[b + 3], P[b + 4], P[b + 5], t)
+        hx += integral * P[b]
+        hy += integral * P[b + 1]
+        hz += integral * P[b + 2]
+        dx += value * P[b]
+        dy += value * P[b + 1]
+        dz += value * P[b + 2]
+    out[0] = -(w[1] * hz - w[2] * hy) - dx
+    out[1] = -(w[2] * hx - w[0] * hz) - dy
+    out[2] = -(w[0] * hy - w[1] * hx) - dz
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def orbit_dipole_world(p, t):
     """Field strength H [A/m] in world (inertial) components of a dipole Earth along a circular orbit.
 
@@ -161,9 +200,9 @@ def magnetic_torque(P, T, t, q, out):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def sum_torque(P, T, t, q, out):
-    """The SUM model's torque [N m]: its terms (CONSTANT or MAGNETIC, each with its own slice of ``P``) evaluated one
-    after the other and added, in the order given (a call of its own, as :func:`magnetic_torque`)."""
+def sum_torque(P, T, t, q, w, out):
+    """The SUM model's torque [N m]: its terms (each with its own slice of ``P``) evaluated one after the other and
+    added, in the order given (a call of its own, as :func:`magnetic_torque`)."""
     sx = sy = sz = 0.0
     for i in range(int(P[0])):
         kind, start, length = int(P[2 + 3 * i]), int(P[3 + 3 * i]), int(P[4 + 3 * i])
@@ -173,6 +212,8 @@ def sum_torque(P, T, t, q, out):
             magnetic_torque(P[start:start + length], T, t, q, out)
         elif kind == GRAVITY_GRADIENT:
             gravity_gradient_torque(P[start:start + length], t, q, out)
+        elif kind == WHEELS:
+            wheels_torque(P[start:start + length], t, w, out)
         else:
             out[0] = out[1] = out[2] = 0.0
         sx += out[0]
@@ -182,15 +223,17 @@ def sum_torque(P, T, t, q, out):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def field_torque(kind, P, T, t, q, out):
-    """The torque of a MAGNETIC, GRAVITY_GRADIENT or SUM model (see :func:`torque_eval`): called, not inlined (each
-    kind inlined into every stage derivative of every scheme cost a fresh clone 10 s more of compiling)."""
+def field_torque(kind, P, T, t, q, w, out):
+    """The torque of a MAGNETIC, GRAVITY_GRADIENT, WHEELS or SUM model (see :func:`torque_eval`): called, not inlined
+    (each kind inlined into every stage derivative of every scheme cost a fresh clone 10 s more of compiling)."""
     if kind == MAGNETIC:
         magnetic_torque(P, T, t, q, out)
     elif kind == GRAVITY_GRADIENT:
         gravity_gradient_torque(P, t, q, out)
+    elif kind == WHEELS:
+        wheels_torque(P, t, w, out)
     else:
-        sum_torque(P, T, t, q, out)
+        sum_torque(P, T, t, q, w, out)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -206,8 +249,8 @@ def torque_eval(kind, P, T, t, q, w, out):
         out[0] = P[VECTOR]
         out[1] = P[VECTOR + 1]
         out[2] = P[VECTOR + 2]
-    else:  # MAGNETIC, GRAVITY_GRADIENT, SUM: one call, so that the stage derivatives it is inlined into stay small
-        field_torque(kind, P, T, t, q, out)
+    else:  # MAGNETIC, GRAVITY_GRADIENT, WHEELS, SUM: one call, so that the stage derivatives it is inlined into stay
+        field_torque(kind, P, T, t, q, w, out)  # small
 
 
 @njit(cache=True, error_model="numpy", inline="always")

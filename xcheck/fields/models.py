@@ -39,6 +39,14 @@ class TorqueModel:
     P: np.ndarray = np.zeros(3)
     T: np.ndarray = _EMPTY_TABLE
     attitude_dependent: bool = False
+    #: an internal torque (a gyrostat's wheels): the world angular momentum ``R (I w + h(t))`` is conserved, every
+    #: component (:meth:`internal_momentum`'s ``h``)
+    conserves_momentum: bool = False
+
+    def internal_momentum(self, t) -> np.ndarray | None:
+        """``h(t)`` [kg m^2/s], body components, (n, 3) at times ``t`` (n,): the momentum that the body carries
+        beside ``I w`` (a gyrostat's wheels), so that its angular momentum is ``I w + h``; None: none."""
+        return None
 
     def kernel_data(self) -> tuple[int, np.ndarray, np.ndarray]:
         return self.kind, self.P, self.T
@@ -184,15 +192,18 @@ class SumTorque(TorqueModel):
         if len(flat) < 2:
             raise ValueError(f"terms: a sum needs two torques or more, got {len(flat)}")
         for term in flat:
-            if term.kind not in (kernel.CONSTANT, kernel.MAGNETIC, kernel.GRAVITY_GRADIENT):
-                raise ValueError(f"terms: a sum adds constant, magnetic and gravity-gradient torques, got "
+            if term.kind not in (kernel.CONSTANT, kernel.MAGNETIC, kernel.GRAVITY_GRADIENT, kernel.WHEELS):
+                raise ValueError(f"terms: a sum adds constant, magnetic, gravity-gradient and wheels' torques, got "
                                  f"{type(term).__name__}")
         tables = [term for term in flat if term.T.size]
         if len(tables) > 1:
             raise ValueError(f"terms: {len(tables)} of them read a table ({', '.join(t.describe() for t in tables)}); "
                              "a sum takes at most one")
+        if sum(term.kind == kernel.WHEELS for term in flat) > 1:
+            raise ValueError("terms: one body has one set of wheels")
         self.terms = flat
         self.attitude_dependent = any(term.attitude_dependent for term in flat)
+        self.conserves_momentum = all(term.conserves_momentum for term in flat)
         header, body, start = [float(len(flat)), float(self.attitude_dependent)], [], 2 + 3 * len(flat)
         for term in flat:
             header += [float(term.kind), float(start), float(len(term.P))]
@@ -212,14 +223,86 @@ class SumTorque(TorqueModel):
         parts = [term.potential(q) for term in self.terms]
         return None if any(p is None for p in parts) else sum(parts)
 
+    def internal_momentum(self, t):
+        parts = [h for h in (term.internal_momentum(t) for term in self.terms) if h is not None]
+        return sum(parts) if parts else None
+
     def momentum_axis(self):
-        axes = [term.momentum_axis() for term in self.terms]
-        if any(a is None for a in axes) or any(abs(abs(a @ axes[0]) - 1.0) > 1e-12 for a in axes):
+        """The axis every external term conserves the momentum about (the wheels' conserve all of it)."""
+        axes = [term.momentum_axis() for term in self.terms if not term.conserves_momentum]
+        if not axes or any(a is None for a in axes) or any(abs(abs(a @ axes[0]) - 1.0) > 1e-12 for a in axes):
             return None
         return axes[0]
 
     def describe(self) -> str:
         return " + ".join(term.describe() for term in self.terms)
+
+
+class WheelsTorque(TorqueModel):
+    """A gyrostat's wheels (issue 28) as a torque on its body: ``-w x h(t) - h'(t)`` [N m], with ``I`` the body's
+    inertia less each wheel's axial moment about its axis (``J_s a a^T``) and ``h`` the wheels' absolute axial
+    momentum, ``sum_i p_i(t) a_i``. Then ``I w' + w x (I w + h) = tau - h'`` is the gyrostat form of Euler's
+    equation, every method's rigid body with one torque more. ``p_i = J_s (a_i . w + Omega_i)``, ``Omega_i`` the
+    wheel's speed relative to the body: constant for a free wheel (no motor torque about a frictionless axle),
+    changed only by its motor's torque, ``p_i' = u_i(t)``. So ``h`` is a function of time alone, never part of the
+    state: ``h0`` plus each motor command's integral, a pulse ``u sin^2(pi (t - t0) / (t1 - t0))`` on ``[t0, t1]``
+    (:func:`.kernel.pulse`). A wheel's speed is ``p_i(t) / J_s - a_i . w`` (:meth:`wheel_speeds`)."""
+
+    kind = kernel.WHEELS
+    conserves_momentum = True
+
+    def __init__(self, h0, commands=(), *, wheels=()):
+        self.h0 = _vector3("h0", h0, "kg m^2/s")
+        rows = []
+        for k, (axis, peak, t0, t1) in enumerate(commands):
+            a = _vector3(f"commands[{k}].axis", axis, "(unit)")
+            if abs(np.linalg.norm(a) - 1.0) > 1e-9:
+                raise ValueError(f"commands[{k}].axis: expected a unit vector, got {a.tolist()}")
+            if not (np.isfinite(peak) and np.isfinite(t0) and np.isfinite(t1) and 0 <= t0 < t1):
+                raise ValueError(f"commands[{k}]: expected a finite peak torque [N m] and 0 <= t0 < t1 [s], got "
+                                 f"{peak!r}, {t0!r}, {t1!r}")
+            rows.append([*a, float(peak), float(t0), float(t1)])
+        self.commands = np.array(rows, dtype=float).reshape(-1, 6)
+        self.wheels = tuple(wheels)  # per wheel: axis (3,), axial moment J_s [kg m^2], p0, its command's index or None
+        self.P = np.concatenate([self.h0, [float(len(rows))], self.commands.ravel()])
+
+    def _pulses(self, t):
+        """Each command's integral and value at times ``t`` (n,): two (n, k) arrays (:func:`.kernel.pulse`)."""
+        t = np.asarray(t, dtype=float)[:, None]
+        u, t0, t1 = self.commands[:, 3], self.commands[:, 4], self.commands[:, 5]
+        s = np.clip((t - t0) / (t1 - t0), 0.0, 1.0)
+        sn = np.sin(np.pi * s)
+        return u * (t1 - t0) * (0.5 * s - np.sin(2.0 * np.pi * s) / (4.0 * np.pi)), u * sn * sn
+
+    def internal_momentum(self, t) -> np.ndarray:
+        integral, _ = self._pulses(t)
+        return self.h0 + integral @ self.commands[:, :3]
+
+    def wheel_speeds(self, t, omega) -> np.ndarray:
+        """Each wheel's speed relative to the body [rad/s], (n, k), at times ``t`` (n,) and body rates ``omega``
+        (n, 3): ``p_i(t) / J_s - a_i . w``, its motor's pulses added to ``p_i`` (a command per wheel, in order)."""
+        omega = np.asarray(omega, dtype=float)
+        out = np.empty((len(omega), len(self.wheels)))
+        integral, _ = self._pulses(t)
+        for i, (axis, moment, p0, command) in enumerate(self.wheels):
+            p = p0 + (integral[:, command] if command is not None else 0.0)
+            out[:, i] = p / moment - omega @ np.asarray(axis, dtype=float)
+        return out
+
+    def breakpoints(self, t_end: float) -> np.ndarray:
+        t = self.commands[:, 4:6].ravel()
+        return np.unique(t[(t > 0) & (t < t_end)])
+
+    def potential(self, q):
+        """Free wheels: the body's ``1/2 w.I w`` is conserved (the wheels' own energy, ``p^2 / 2 J_s``, is
+        constant), so the potential is zero; a motor works on it: None."""
+        return np.zeros(np.shape(q)[:-1]) if not len(self.commands) else None
+
+    def describe(self) -> str:
+        words = f"{len(self.wheels)} wheel(s), momentum {np.round(self.h0, 12).tolist()} kg m^2/s"
+        if len(self.commands):
+            words += "; motor pulses " + ", ".join(f"{c[3]:g} N m over {c[4]:g}-{c[5]:g} s" for c in self.commands)
+        return words
 
 
 def magnetic_torque(dipole, H_body):

@@ -17,7 +17,7 @@ _CACHE: dict = {}
 def scenario_key(scenario: Scenario):
     return (str(scenario.path), scenario.name, str(scenario.model), scenario.duration, tuple(scenario.q0),
             tuple(scenario.omega0), scenario.sequence, repr(scenario.torque), scenario.reference,
-            scenario.reference_method, scenario.reference_dt, scenario.inertia)
+            scenario.reference_method, scenario.reference_dt, scenario.inertia, scenario.wheel_speeds)
 
 
 def _cached(kind, scenario, make):
@@ -48,7 +48,7 @@ def run_context(scenario: Scenario) -> RunContext:
         return RunContext(inertia=body.inertia_for(moments), model_path=str(scenario.model), q0=scenario.q0,
                           omega0=scenario.omega0, duration=scenario.duration, torque=build_torque(scenario, body),
                           sequence=scenario.sequence, model_moments=None if moments is None else tuple(moments),
-                          engine_torque="same" if own is None else applied)
+                          engine_torque="same" if own is None else applied, wheel_speeds=scenario.wheel_speeds)
     return _cached("context", scenario, make)
 
 

@@ -142,11 +142,25 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float,
     drift = invariant_drift(ctx.inertia, traj, ctx.torque)  # under a torque: what it conserves, if anything
     run = Run(dt=dt, **err, energy_drift=drift["energy_drift"], momentum_drift=drift["momentum_drift"],
               spin_drift=drift.get("spin_drift"), norm_drift=drift["norm_drift"],
+              wheel_speed_error=_wheel_speed_error(traj, ctx.torque, q_ref, w_ref, mask),
               wall_time=wall, steps_per_second=_steps_per_second(dt, ctx.duration, wall),
               message=traj.extras.get("clock") or "", repeats=repeats, evaluations=traj.extras.get("evaluations"), rtol=rtol)
     if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
         return Run.failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall, rtol)
     return run
+
+
+def _wheel_speed_error(traj, torque, q_ref, w_ref, mask) -> float | None:
+    """A gyrostat's largest wheel-speed error over the run [rad/s]: the engine's own wheels' speeds (MuJoCo's
+    hinges, ``extras["wheel_speeds"]``), or ours from the wheels' momentum and the run's body rate
+    (:meth:`~xcheck.fields.WheelsTorque.wheel_speeds`), against the reference's; None without wheels."""
+    wheels = next((term for term in getattr(torque, "terms", [torque]) if hasattr(term, "wheel_speeds")), None)
+    if wheels is None or not wheels.wheels:
+        return None
+    t = traj.t[mask]
+    own = traj.extras.get("wheel_speeds")
+    got = own[mask] if own is not None else wheels.wheel_speeds(t, traj.omega[mask])
+    return float(np.max(np.abs(got - wheels.wheel_speeds(t, w_ref[mask])))) if len(t) else None
 
 
 #: A run timed again because a run with more work took less time is re-run this many times more, at most.
@@ -249,11 +263,13 @@ def _sample(finest, ref, ctx):
     out["momentum_drift"] = np.linalg.norm(H - H[0], axis=1) / max(np.linalg.norm(H[0]), 1e-300)
     out["momentum_label"] = "|H - H0| / |H0|"
     if ctx.torque is not None:  # what the torque conserves instead, where it does (a top's gravity)
-        kept = conserved_series(ctx.inertia, q, out["omega"], ctx.torque)
+        kept = conserved_series(ctx.inertia, q, out["omega"], ctx.torque, t)
         if kept["energy_drift"] is not None:
             out["energy_drift"], out["energy_label"] = kept["energy_drift"], "|ΔE| / (|T0| + |V0|), E = T + V"
         if kept["momentum_drift"] is not None:
-            out["momentum_drift"], out["momentum_label"] = kept["momentum_drift"], "|ΔH · axis| / |H0|"
+            out["momentum_drift"], out["momentum_label"] = kept["momentum_drift"], (
+                "|H - H0| / |H0|, H = R (I ω + h)" if getattr(ctx.torque, "conserves_momentum", False)
+                else "|ΔH · axis| / |H0|")
     if "euler" in traj.extras:
         out["euler"] = traj.extras["euler"][idx]
     if ctx.torque is not None:
