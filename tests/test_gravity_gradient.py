@@ -86,5 +86,5 @@ def test_the_gravity_gradient_sums_with_the_magnetic_torque(tmp_path):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             _scenario(tmp_path, '[torque]\nkind = "gravity-gradient"\naltitude_km = -5.0')
-    with pytest.raises(ScenarioError, match="expected 'magnetic', 'constant' or 'gravity-gradient'"):
+    with pytest.raises(ScenarioError, match="expected one of 'magnetic', 'constant', 'gravity-gradient'"):
         _scenario(tmp_path, '[torque]\nkind = "solar"')

@@ -18,8 +18,8 @@ def test_every_bundled_scenario_loads():
     names = list(bundled_scenarios())
     assert names == ["cubesat-parts-orbit-field", "gyroscope-near-singular", "gyroscope-nonsingular",
                      "gyroscope-singular", "gyrostat-axisymmetric", "heavy-top-looping", "heavy-top-near-vertical",
-                     "heavy-top", "rax1-body-field", "rax1-orbit-field", "tumbler-intermediate-axis",
-                     "tumbler-three-wheels"]
+                     "heavy-top", "rax1-body-field", "rax1-momentum-bias", "rax1-orbit-field",
+                     "tumbler-intermediate-axis", "tumbler-three-wheels"]
     for n in names:
         sc = resolve_scenario(n)
         assert sc.name == n and np.linalg.norm(sc.q0) == pytest.approx(1, abs=1e-15) and sc.duration > 0

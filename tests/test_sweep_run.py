@@ -416,7 +416,10 @@ def test_bundled_sweeps_are_valid():
 
     specs = {p.stem: S.load_sweep(p) for p in sorted((BUNDLED_MODELS / "sweeps").glob("*.toml"))}
     assert set(specs) == {"rax1-dipole-inertia", "gyroscope-spin-dt", "model-swap", "heavy-top-nutation-dt",
-                          "heavy-top-pivot-spin"}
+                          "heavy-top-pivot-spin", "rax1-wheel-dipole"}
+    wheel = specs["rax1-wheel-dipole"]  # issue 28: wheel momentum x dipole strength
+    assert sorted({(c["params"]["wheel_speed_scale"], c["params"]["dipole_scale"]) for c in wheel.cells}) == [
+        (w, d) for w in (0.001, 0.01, 0.1, 1.0) for d in (1.0, 10.0, 100.0)]
     pivots = {load_body_centre(c["params"]["model"]) for c in specs["heavy-top-pivot-spin"].cells}
     # the disk (2 kg) 1, 2, 4 cm above the pivot, the axle (0.02 kg) centred 1.5 cm above it
     np.testing.assert_allclose(sorted(pivots), [(2.0 * l + 0.02 * 0.015) / 2.02 for l in (0.01, 0.02, 0.04)], rtol=1e-12)
@@ -437,6 +440,6 @@ def test_a_bundled_sweep_runs_by_name(tmp_path, capsys):
     assert "gyroscope-spin-dt" in capsys.readouterr().out
     assert main(["sweep", "no-such-sweep", "--out", str(tmp_path)]) == 2
     assert ("not a bundled sweep (gyroscope-spin-dt, heavy-top-nutation-dt, heavy-top-pivot-spin, model-swap, "
-            "rax1-dipole-inertia)" in capsys.readouterr().err)
+            "rax1-dipole-inertia, rax1-wheel-dipole)" in capsys.readouterr().err)
     spec = S.resolve_sweep("gyroscope-spin-dt")
     assert spec.path.name == "gyroscope-spin-dt.toml" and len(spec.cells) == 8

@@ -100,6 +100,14 @@ class MJCFBody(RigidBody):
         """The inertia a run uses: the model's, or :meth:`inertia_with` a sweep's ``moments`` (None: the model's)."""
         return self.inertia if moments is None else self.inertia_with(moments)
 
+    def mass_inertia(self, moments=None) -> np.ndarray:
+        """The inertia of the whole mass, wheels included (what a gravity gradient pulls on): :meth:`inertia_for`
+        plus each wheel's axial moment about its axis (a gyrostat's dynamics take it less those)."""
+        out = self.inertia_for(moments)
+        for w in self.wheels:
+            out = out + w.moment * np.outer(w.axis, w.axis)
+        return out
+
     def own_torque(self, omega0=None, wheel_speeds=None):
         """The torque the model itself exerts on the body (None: none): on a ball joint, gravity's about the pivot
         (:class:`~xcheck.fields.GravityTorque`, evaluated at every stage like any attitude-dependent torque); a

@@ -129,10 +129,14 @@ def _basilisk_input_order(torque: dict | None):
     from .engines.basilisk import MIDPOINT_NOTE, input_order
     from .fields import FIELDS
 
-    kind = None if torque is None else torque.get("kind")
-    order = input_order(kind, FIELDS[torque["field"]] if kind == "magnetic" else None)
-    if order is None:
+    from .torque_terms import torque_terms
+
+    orders = [input_order(term.get("kind"), FIELDS[term["field"]] if term.get("kind") == "magnetic" else None)
+              for term in torque_terms(torque)]
+    orders = [o for o in orders if o is not None]
+    if not orders:
         return None, None
+    order = min(orders)
     return order, (MIDPOINT_NOTE if order == 2 else "Basilisk takes the torque at each step's start and holds it "
                    "over the step: first order")
 

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from . import rotations as rot
+from .torque_terms import TORQUE_KINDS, copy_torque, magnetic_term, torque_terms  # noqa: F401 (re-exported)
 from .paths import BUNDLED_MODELS
 from .trajectory import check_initial_state
 
@@ -27,7 +28,7 @@ else:  # pragma: no cover
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "check_scenario_model", "scenario_from_model",
            "model_scenario_text", "is_model_arg", "bundled_scenarios", "build_torque", "torque_parts",
-           "resolve_scenario", "check_name", "check_steps", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
+           "resolve_scenario", "check_name", "check_steps", "torque_terms", "magnetic_term", "copy_torque", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
            "ADAPTIVE_TURN", "default_adaptive_step",
            "SCENARIO_DIR"]
 
@@ -327,8 +328,15 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
     ini.finish()
 
     torque = None
-    if "torque" in data:
-        torque = _read_torque(_Reader(path, top.get("torque", "table"), "torque"))
+    if "torque" in data:  # one [torque] table, or a list of them ([[torque]]: their sum)
+        value = data["torque"]
+        if isinstance(value, list):
+            if not value or not all(isinstance(t, dict) for t in value):
+                top.fail("torque", f"expected [torque] tables ([[torque]] for each term of a sum), got {value!r}")
+            torque = [_read_torque(_Reader(path, t, f"torque[{k}]")) for k, t in enumerate(value)]
+            torque = torque[0] if len(torque) == 1 else torque
+        else:
+            torque = _read_torque(_Reader(path, top.get("torque", "table"), "torque"))
 
     st = _Reader(path, top.get("study", "table", {}), "study")
     steps = tuple(st.get("steps", "numbers", list(DEFAULT_STEPS)))
@@ -481,7 +489,7 @@ def _read_torque(tq: _Reader) -> dict:
             else:
                 out[key] = tq.get(key, spec.kind, required=True)
     else:
-        tq.fail("kind", f"expected 'magnetic', 'constant' or 'gravity-gradient', got {kind!r}")
+        tq.fail("kind", f"expected one of {', '.join(repr(k) for k in TORQUE_KINDS)}, got {kind!r}")
     tq.finish()
     return out
 
@@ -511,13 +519,19 @@ def torque_parts(scenario: Scenario, body):
 def _applied_torque(scenario: Scenario, body):
     from . import fields
 
-    spec = scenario.torque
-    if spec is None:
+    terms = [_torque_term(spec, scenario, body) for spec in torque_terms(scenario.torque)]
+    if not terms:
         return None
+    return terms[0] if len(terms) == 1 else fields.SumTorque(terms)
+
+
+def _torque_term(spec: dict, scenario: Scenario, body):
+    from . import fields
+
     if spec["kind"] == "constant":
         return fields.ConstantTorque(spec["torque"])
-    if spec["kind"] == "gravity-gradient":  # the body's own inertia (a sweep's, where it changes it)
-        return fields.GravityGradientTorque(body.inertia_for(scenario.inertia),
+    if spec["kind"] == "gravity-gradient":  # the whole mass's inertia, wheels included (a sweep's, where it changes)
+        return fields.GravityGradientTorque(body.mass_inertia(scenario.inertia),
                                             **{k: v for k, v in spec.items() if k != "kind"})
     dipole = np.array(spec.get("dipole", body.dipole), dtype=float)
     if not np.any(dipole):

@@ -118,6 +118,9 @@ def read_determination(reader, duration: float, torque: dict | None = None) -> D
     if not all(MIN_ANGLE_DEG <= a <= 90 for a in angles):
         reader.fail("approach_angles_deg", f"expected angles from {MIN_ANGLE_DEG:g} to 90 degrees (closer, the sun "
                                            f"and the field are parallel for the solvers), got {list(angles)}")
+    from ..torque_terms import magnetic_term
+
+    torque = magnetic_term(torque)
     if torque is not None and torque.get("field") == "uniform" and "H_world" in torque:
         H = np.asarray(torque["H_world"], dtype=float)
         u = sun / np.linalg.norm(sun)

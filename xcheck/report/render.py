@@ -421,7 +421,7 @@ def _scenario_blocks(st, figs) -> list:
     w0 = (np.round(sc.omega0, 6) + 0.0).tolist()
     blocks.append(Para([("Model ", None), (str(sc.model), "code"), (f", {sc.duration:g} s, reference ", None),
                         (sc.reference, "b"), (f"; q0 = {q0} (body → world), ω0 = {w0} rad/s (body frame); torque: "
-                                              f"{_torque_text(sc.torque)}. Orders "
+                                              f"{_torque_text(sc.torque)}{_own_torque_text(sc)}. Orders "
                                               f"are measured on errors above {st.order_floor:.2g} rad.", None)],
                        small=True))
     blocks += [Figure(file, caption) for file, caption in figs]  # the figures first, then the tables behind them
@@ -478,8 +478,22 @@ def _scenario_blocks(st, figs) -> list:
     return blocks
 
 
+def _own_torque_text(sc) -> str:
+    """What the model itself exerts (a top's gravity, a gyrostat's wheels), as words after the scenario's torque."""
+    from ..models import ModelError, load_body
+    from ..scenario import torque_parts
+
+    try:
+        own, _ = torque_parts(sc, load_body(sc.model))
+    except (ModelError, ValueError, OSError):  # said where the study ran
+        return ""
+    return "" if own is None else f"; the model's own: {own.describe()}"
+
+
 def _torque_text(torque) -> str:
-    """A scenario's torque in words, with units and frames."""
+    """A scenario's torque in words, with units and frames (a sum's terms joined by +)."""
+    if isinstance(torque, list):
+        return " + ".join(_torque_text(term) for term in torque) or "none"
     if not torque:
         return "none"
     if torque.get("kind") == "constant":

@@ -51,7 +51,10 @@ def fingerprint(spec: SweepSpec) -> str:
     """What a cell's result depends on besides its parameters: the base scenario's and its files' bytes, the
     methods and the steps. A log written under another fingerprint cannot be resumed."""
     h = hashlib.sha1()
-    files = [spec.base.path, spec.base.model] + [v for k, v in (spec.base.torque or {}).items() if k == "table"]
+    from ..torque_terms import torque_terms
+
+    files = [spec.base.path, spec.base.model] + [v for term in torque_terms(spec.base.torque)
+                                                 for k, v in term.items() if k == "table"]
     for f in files:
         h.update(Path(f).read_bytes())
     h.update(json.dumps({"methods": sweep_methods(spec), "steps": list(spec.steps)}).encode())
@@ -165,9 +168,15 @@ def record_problem(rec) -> str | None:
 # planning: chunks of cells that can share a batch
 # ------------------------------------------------------------------------------------------------------
 def _batch_key(sc) -> str:
-    """Cells with the same key differ only in initial state or inertia: one integrate_batch call serves them."""
+    """Cells with the same key differ only in initial state or inertia: one integrate_batch call serves them. A
+    gyrostat's wheels' momentum is part of its torque, and it follows the body rate and the wheels' speeds: its
+    cells share a batch only where both are the same."""
+    from ..models import load_body
+
+    wheels = bool(load_body(sc.model).wheels)
     return json.dumps([str(sc.model), sc.torque, sc.duration, sc.sequence, sc.reference, sc.reference_method,
-                       sc.reference_dt], sort_keys=True, default=str)
+                       sc.reference_dt, *((list(sc.omega0), sc.wheel_speeds) if wheels else ())],
+                      sort_keys=True, default=str)
 
 
 def plan_chunks(spec: SweepSpec, cells: list[dict]) -> list[list[tuple]]:

@@ -48,6 +48,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..torque_terms import copy_torque, magnetic_term, torque_terms
 from ..scenario import Scenario, ScenarioError, _Reader, is_model_arg, resolve_scenario
 
 try:
@@ -64,7 +65,7 @@ class SweepError(ScenarioError):
 
 
 #: axis name -> (kind of one value, what it varies). Kinds: number, positive, vector3, positive3, quaternion,
-#: path, string, strings.
+#: path, string, strings, kinds (a list of torque kinds).
 @dataclass(frozen=True)
 class AxisKind:
     """A sweep axis as declared: the kind of its values (how the spec is read and checked), its help text, and
@@ -88,19 +89,32 @@ def _inertia_scale(sc, value, body):
 
 
 def _dipole(sc, value, body):
-    sc.torque["dipole"] = list(value)
+    magnetic_term(sc.torque)["dipole"] = list(value)
 
 
 def _dipole_scale(sc, value, body):
-    sc.torque["dipole"] = [value * float(m) for m in sc.torque.get("dipole", body().dipole)]
+    term = magnetic_term(sc.torque)
+    term["dipole"] = [value * float(m) for m in term.get("dipole", body().dipole)]
 
 
 def _field(sc, value, body):
     from ..fields import FIELDS
 
     keys = FIELDS[value].keys
-    sc.torque = {k: v for k, v in sc.torque.items() if k in ("kind", "dipole") or k in keys}
-    sc.torque["field"] = value
+    term = magnetic_term(sc.torque)
+    kept = {k: v for k, v in term.items() if k in ("kind", "dipole") or k in keys}
+    term.clear()
+    term.update(kept, field=value)
+
+
+def _torques(sc, value, body):
+    """Keep the base's torque terms of the kinds listed (each term on or off; [] torque free)."""
+    terms = [t for t in torque_terms(sc.torque) if t["kind"] in value]
+    sc.torque = None if not terms else terms[0] if len(terms) == 1 else terms
+
+
+def _wheel_speed_scale(sc, value, body):
+    sc.wheel_speeds = tuple(value * s for s in body().wheel_speeds0(sc.wheel_speeds))
 
 
 def _rate_direction(sc, value, body):
@@ -125,6 +139,10 @@ AXES = {
     "rate_scale": AxisKind("positive", "the initial body rate times a factor",
                            lambda sc, v, body: setattr(sc, "omega0", v * sc.omega0)),
     "rate_direction": AxisKind("vector3", "the initial body rate's direction (its magnitude kept)", _rate_direction),
+    "wheel_speed_scale": AxisKind("positive", "a gyrostat's wheels' initial speeds times a factor (their momentum)",
+                                  _wheel_speed_scale),
+    "torques": AxisKind("kinds", "the base's torque terms kept, by kind (a list each: [\"magnetic\", "
+                                 "\"gravity-gradient\"], or [] for none): each term on or off", _torques),
     "dt": AxisKind("positive", "the steps every cell runs [s]"),
 }
 RANDOM = {"attitude": "so3", "rate_direction": "sphere"}
@@ -345,6 +363,15 @@ def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int, 
 
     if axis.name in ("rate_scale", "rate_direction") and not np.any(base.omega0):
         refuse(f"the base scenario {base.name} starts at rest: there is no rate to scale or turn")
+    if axis.name in ("inertia", "inertia_scale", "wheel_speed_scale"):
+        from ..models import load_body
+
+        wheels = load_body(base.model).wheels
+        if wheels and axis.name != "wheel_speed_scale":
+            refuse(f"the base's model {base.model} has wheels: its inertia is not swept (MuJoCo's bus alone would "
+                   "change, not the whole body's); swap the model instead (a model axis)")
+        if not wheels and axis.name == "wheel_speed_scale":
+            refuse(f"the base's model {base.model} has no wheels")
     if axis.name == "dt":
         from ..scenario import check_steps
 
@@ -370,7 +397,7 @@ def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int, 
         if axis.name == "field":
             from ..fields import FIELDS
 
-            missing = [k for k, key in FIELDS[value].keys.items() if key.required and k not in base.torque]
+            missing = [k for k, key in FIELDS[value].keys.items() if key.required and k not in magnetic_term(base.torque)]
             if missing:
                 refuse(f"the field model {value!r} needs {', '.join(missing)}, which the base's [torque] does not "
                        "give")
@@ -444,15 +471,16 @@ def apply_cell(base: Scenario, params: dict) -> Scenario:
     from ..fields import FIELDS
     from ..models import load_body
 
-    sc = dataclasses.replace(base, torque=dict(base.torque) if base.torque else None)
+    sc = dataclasses.replace(base, torque=copy_torque(base.torque))
     body = lru_cache(maxsize=1)(lambda: load_body(sc.model))  # the cell's model (after a model axis)
     for name, axis in AXES.items():
         if name in params and axis.apply is not None:
             axis.apply(sc, params[name], body)
         if name == "field":
             for key, value in ((k.removeprefix("field."), v) for k, v in params.items() if k.startswith("field.")):
-                if key in FIELDS[sc.torque["field"]].keys:  # a key the cell's field model has
-                    sc.torque[key] = value
+                term = magnetic_term(sc.torque)
+                if term is not None and key in FIELDS[term["field"]].keys:  # a key the cell's field model has
+                    term[key] = value
     return sc
 
 
@@ -467,16 +495,17 @@ def _read_axis(path: Path, name: str, table, base: Scenario, combine: str) -> Ax
     ax = _Reader(path, table, f"axes.{name}")
     if name.startswith("field."):
         key = name.removeprefix("field.")
-        if base.torque is None or base.torque.get("kind") != "magnetic":
+        term = magnetic_term(base.torque)
+        if term is None:
             refuse(f"the base scenario {base.name} has no magnetic field to vary")
-        declared = FIELDS[base.torque["field"]].keys
+        declared = FIELDS[term["field"]].keys
         if key not in declared:
-            refuse(f"the base's field model {base.torque['field']!r} has no key {key!r} (it has: "
+            refuse(f"the base's field model {term['field']!r} has no key {key!r} (it has: "
                    f"{', '.join(declared) or 'none'})")
         kind = declared[key].kind  # the axis kinds include the field keys' kinds
     elif name in AXES:
         kind = AXES[name].kind
-        if name in MAGNETIC_AXES and (base.torque is None or base.torque.get("kind") != "magnetic"):
+        if name in MAGNETIC_AXES and magnetic_term(base.torque) is None:
             refuse(f"the base scenario {base.name} has no magnetic torque: nothing for {name!r} to vary")
     else:
         refuse(f"unknown axis (expected one of: {', '.join(AXES)}, or field.<key> of the base's field model)")
@@ -560,6 +589,12 @@ def _value(ax: _Reader, key: str, kind: str, v, path: Path):
             if abs(norm - 1) > 1e-6:
                 bad("unit quaternions [w, x, y, z] (norm 1 within 1e-6)")
         return [float(x) for x in v]
+    if kind == "kinds":  # torque kinds, a list each
+        from ..torque_terms import TORQUE_KINDS
+
+        if not isinstance(v, list) or not all(isinstance(x, str) and x in TORQUE_KINDS for x in v):
+            bad(f"lists of torque kinds ({', '.join(TORQUE_KINDS)})")
+        return list(v)
     if kind == "path":
         if not isinstance(v, str):
             bad("file names")
