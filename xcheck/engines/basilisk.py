@@ -116,6 +116,7 @@ class _Simulation:
         self.process.addNewTask(self.task, -1)
         self.total.addNewProcess(self.process)
         self.keep = []
+        self.wheel_speeds = None  # (recorder, number of wheels) of a gyrostat's ReactionWheelStateEffector
 
     def add(self, model, priority: int = -1):
         """Add ``model`` to the task (a higher priority runs earlier in each task call)."""
@@ -180,6 +181,9 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
               "input_order": input_order, "tolerances": tolerances,
               # RK4: four evaluations of the hub's equations a step; the adaptive ones do not report theirs
               "evaluations": 4 * n if integrator == "rk4" else None}
+    if getattr(sim, "wheel_speeds", None) is not None:  # a gyrostat's wheels, relative to the hub, as recorded
+        wheel_rec, count = sim.wheel_speeds
+        extras["wheel_speeds"] = np.asarray(wheel_rec.wheelSpeeds, dtype=float)[:, :count]
     method = f"basilisk-{integrator}"
     bad = ~(np.all(np.isfinite(sigma), axis=1) & np.all(np.isfinite(omega), axis=1))
     k = int(np.argmax(bad)) if bad.any() else len(t)
@@ -281,8 +285,7 @@ def _torque_input(torque, sc, sim, b, ns: int, n: int):
         orders = [order for _, order in inputs if order is not None]
         return " + ".join(note for note, _ in inputs), (min(orders) if orders else None)
     if getattr(torque, "conserves_momentum", False):  # a gyrostat's wheels: Basilisk's own effector is their model
-        raise ValueError("Basilisk: a body with wheels needs its reactionWheelStateEffector, which xcheck does not "
-                         "drive yet (issue 28); leave Basilisk's methods out of this scenario")
+        return _reaction_wheels(torque, sc, sim)
     if isinstance(torque, ConstantTorque):
         ext = _ext_torque(sc, sim, b)
         ext.extTorquePntB_B = [[float(x)] for x in torque.P]
@@ -302,6 +305,54 @@ def _torque_input(torque, sc, sim, b, ns: int, n: int):
         ext.extTorquePntB_B = [[float(x)] for x in np.asarray(torque(t, rot.mrp_to_quat(sigma), omega), float)]
     _before_each_step(sim, sc, step_input, ns)
     return "extForceTorque, set before every step to the torque at the step's start, held", input_order("callable")
+
+
+def _reaction_wheels(wheels, sc, sim):
+    """A gyrostat's free wheels as Basilisk's own (issue 28): ``ReactionWheelStateEffector`` with balanced wheels
+    on the hub, each its spin axis, axial moment ``Js`` and initial speed relative to the hub. Basilisk leaves a
+    balanced wheel's mass and inertia to the hub's (its issue 600), so the hub's inertia is the whole body's,
+    ours plus each wheel's axial moment; its equations take the axial spin back out (the gyrostat's). The wheels'
+    speeds are integrated as Basilisk states, in every stage. A motor's pulse is refused by name: its command
+    would be a held input, not yet measured."""
+    from Basilisk.architecture import messaging
+    from Basilisk.simulation import reactionWheelStateEffector
+
+    if len(wheels.commands):
+        raise ValueError("Basilisk: a wheel's motor pulse is not yet driven through its rwMotorCmdInMsg (issue 28); "
+                         "Basilisk runs gyrostats with free wheels")
+    hub = np.array(sc.hub.IHubPntBc_B, dtype=float)
+    effector = reactionWheelStateEffector.ReactionWheelStateEffector()
+    effector.ModelTag = "xcheck-wheels"
+    w0 = np.array(sc.hub.omega_BN_BInit, dtype=float).ravel()
+    for k, (axis, moment, p0, _) in enumerate(wheels.wheels):
+        a = np.asarray(axis, dtype=float)
+        rw = reactionWheelStateEffector.RWConfigPayload()
+        rw.label = f"W{k + 1}"
+        rw.RWModel = messaging.BalancedWheels
+        rw.Js, rw.Jt, rw.Jg = float(moment), 0.5 * float(moment), 0.5 * float(moment)
+        rw.gsHat_B = [[float(x)] for x in a]
+        w2 = np.cross(a, [1.0, 0.0, 0.0]) if abs(a[0]) < 0.99 else np.cross(a, [0.0, 1.0, 0.0])
+        w2 /= np.linalg.norm(w2)
+        rw.w2Hat0_B = [[float(x)] for x in w2]
+        rw.w3Hat0_B = [[float(x)] for x in np.cross(a, w2)]
+        rw.rWB_B = [[0.0], [0.0], [0.0]]
+        rw.Omega = float(p0 / moment - a @ w0)  # [rad/s], relative to the hub
+        rw.theta = 0.0
+        rw.u_max = -1.0  # no torque saturation, no friction, no speed limit
+        rw.u_min = 0.0
+        rw.fCoulomb = 0.0
+        rw.Omega_max = -1.0
+        rw.P_max = -1.0
+        rw.betaStatic = -1.0
+        effector.addReactionWheel(rw)
+        hub = hub + moment * np.outer(a, a)
+        sim.keep.append(rw)
+    sc.hub.IHubPntBc_B = hub.tolist()
+    sc.addStateEffector(effector)
+    sim.add(effector, EFFECTOR_PRIORITY)
+    sim.wheel_speeds = (sim.add(effector.rwSpeedOutMsg.recorder()), len(wheels.wheels))
+    return (f"ReactionWheelStateEffector: {len(wheels.wheels)} balanced free wheel(s), their speeds Basilisk states "
+            "(the hub's inertia the whole body's)"), None
 
 
 def _mtb(torque, sc, sim, b, ns: int, n: int):
