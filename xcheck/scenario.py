@@ -460,6 +460,18 @@ def check_scenario_model(scenario: Scenario) -> None:
                                 f"top or the axisymmetric gyrostat, and the body is under {torque.describe()}: {why}")
 
 
+#: The keys of the surface forces' [torque] tables (:mod:`xcheck.fields.surface`): key -> (shape, required).
+SURFACE_KEYS = {
+    "solar-pressure": {"centre_of_pressure": (("vector", 3), True), "area": ("number", True),
+                       "reflectivity": ("number", False), "pressure": ("number", False),
+                       "sun_direction": (("vector", 3), False)},
+    "aerodynamic": {"centre_of_pressure": (("vector", 3), True), "area": ("number", True),
+                    "density": ("number", False), "drag_coefficient": ("number", False),
+                    "altitude_km": ("number", False), "inclination_deg": ("number", False),
+                    "raan_deg": ("number", False), "arg_latitude_deg": ("number", False)},
+}
+
+
 def _read_torque(tq: _Reader) -> dict:
     """The [torque] table as plain values: ``kind``, and for a magnetic torque ``field``, ``dipole`` (optional)
     and the field's own keys as its declaration lists them (:data:`xcheck.fields.FIELDS`)."""
@@ -475,6 +487,11 @@ def _read_torque(tq: _Reader) -> dict:
         for key in GRAVITY_GRADIENT_KEYS:
             if tq.has(key):
                 out[key] = tq.get(key, "number")
+    elif kind in SURFACE_KEYS:  # solar pressure, aerodynamic drag: a force through a centre of pressure
+        for key, (shape, required) in SURFACE_KEYS[kind].items():
+            if required or tq.has(key):
+                value = tq.get(key, shape, required=True)
+                out[key] = value.tolist() if isinstance(value, np.ndarray) else value
     elif kind == "magnetic":
         field_name = tq.get("field", "string", required=True)
         if field_name not in FIELDS:
@@ -533,6 +550,10 @@ def _torque_term(spec: dict, scenario: Scenario, body):
 
     if spec["kind"] == "constant":
         return fields.ConstantTorque(spec["torque"])
+    if spec["kind"] == "solar-pressure":
+        return fields.SolarPressureTorque(**{k: v for k, v in spec.items() if k != "kind"})
+    if spec["kind"] == "aerodynamic":
+        return fields.AerodynamicTorque(**{k: v for k, v in spec.items() if k != "kind"})
     if spec["kind"] == "gravity-gradient":  # the whole mass's inertia, wheels included (a sweep's, where it changes)
         return fields.GravityGradientTorque(body.mass_inertia(scenario.inertia),
                                             **{k: v for k, v in spec.items() if k != "kind"})

@@ -6,7 +6,7 @@ from __future__ import annotations
 __all__ = ["TORQUE_KINDS", "torque_terms", "magnetic_term", "copy_torque"]
 
 #: The kinds a scenario's [torque] may be (each term of a [[torque]] list too).
-TORQUE_KINDS = ("magnetic", "constant", "gravity-gradient")
+TORQUE_KINDS = ("magnetic", "constant", "gravity-gradient", "solar-pressure", "aerodynamic")
 
 
 def torque_terms(spec) -> list[dict]:

@@ -268,8 +268,10 @@ def input_order(kind: str | None, field=None) -> int | None:
     time-dependent is held: a constant, or a field fixed in time, is exact; a time-dependent field is written at
     each step's midpoint (2); a callable's torque is taken at each step's start (1). Read both where a study is
     planned (:mod:`xcheck.runners`, from the scenario's torque) and where the run is built (here)."""
-    if kind in (None, "constant"):
+    if kind in (None, "constant", "solar-pressure"):  # solar pressure: a force fixed in the world, written once
         return None
+    if kind == "aerodynamic":  # a force that turns with the orbit: written at each step's midpoint
+        return 2
     if kind == "magnetic":
         return 2 if field.time_dependent else None
     return 1

@@ -46,6 +46,7 @@ from .models import (
                      magnetic_torque,
 )
 from .orbit import IGRF2010_DIPOLE_NT, RAX1_ORBIT, GravityGradientTorque, OrbitDipoleField, orbit_position
+from .surface import AerodynamicTorque, SolarPressureTorque
 from .rax1 import (
                      SEED004_INITIAL_TORQUE,
                      nearest_achievable_torque,
@@ -57,7 +58,7 @@ from .tables import load_field_table, write_field_table
 
 __all__ = [
     "MU0", "FIELDS", "Field", "Key", "TorqueModel", "ConstantTorque", "MagneticTorque", "GravityTorque",
-    "SumTorque", "GravityGradientTorque", "WheelsTorque",
+    "SumTorque", "GravityGradientTorque", "WheelsTorque", "SolarPressureTorque", "AerodynamicTorque",
     "BodyFieldTable",
     "WorldFieldTable", "UniformField", "OrbitDipoleField", "IGRFField", "torque_eval", "torque_needs_attitude",
     "magnetic_torque", "load_field_table", "write_field_table", "orbit_position", "RAX1_ORBIT",

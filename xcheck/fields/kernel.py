@@ -8,7 +8,8 @@ and a table ``T`` (2-D, empty when unused). ``P`` is read by named slot:
 slot            meaning
 ==============  ==========================================================================================
 ``VECTOR``      ``P[0:3]``: the constant torque [N m] (CONSTANT) or the permanent dipole M_p [A m^2] (MAGNETIC)
-``EVALUATOR``   ``P[3]``: how the field is evaluated (:data:`TABLE`, :data:`CONSTANT_FIELD`, :data:`ORBIT_DIPOLE`)
+``EVALUATOR``   ``P[3]``: how the field is evaluated (:data:`TABLE`, :data:`CONSTANT_FIELD`, :data:`ORBIT_DIPOLE`,
+                :data:`ORBIT_FLOW`)
 ``FRAME``       ``P[4]``: the components the field is given in, :data:`BODY` or :data:`WORLD` (then the torque
                 depends on attitude: ``H_body = R^T H_world``)
 ``FIELD``       ``P[5:]``: the field's own parameters, in the order of its declared ``slots``
@@ -49,6 +50,7 @@ FIELD = 5
 TABLE = 0  # T's columns 1-3 linearly interpolated in time (column 0)
 CONSTANT_FIELD = 1  # the field's slots (Hx, Hy, Hz)
 ORBIT_DIPOLE = 2  # a tilted dipole Earth along a circular orbit (slots: OrbitDipoleField.slots)
+ORBIT_FLOW = 3  # a vector along a circular orbit's velocity (slots: scale, mean motion, inclination, RAAN, u0)
 
 # field frames (P[FRAME])
 BODY = 0
@@ -94,6 +96,15 @@ def orbit_direction(n, inc, raan, u0, t):
     u = u0 + n * t
     cu, su, ci, si, cO, sO = np.cos(u), np.sin(u), np.cos(inc), np.sin(inc), np.cos(raan), np.sin(raan)
     return cO * cu - sO * su * ci, sO * cu + cO * su * ci, su * si
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def orbit_velocity_direction(n, inc, raan, u0, t):
+    """The unit velocity vector (world components) of the circular orbit of :func:`orbit_direction`: its
+    derivative with respect to the argument of latitude."""
+    u = u0 + n * t
+    cu, su, ci, si, cO, sO = np.cos(u), np.sin(u), np.cos(inc), np.sin(inc), np.cos(raan), np.sin(raan)
+    return -cO * su - sO * cu * ci, -sO * su + cO * cu * ci, cu * si
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -180,6 +191,9 @@ def field_body(P, T, t, q):
         hx, hy, hz = interp_rows(T, t)
     elif evaluator == CONSTANT_FIELD:
         hx, hy, hz = p[0], p[1], p[2]
+    elif evaluator == ORBIT_FLOW:
+        hx, hy, hz = orbit_velocity_direction(p[1], p[2], p[3], p[4], t)
+        hx, hy, hz = p[0] * hx, p[0] * hy, p[0] * hz
     else:  # ORBIT_DIPOLE
         hx, hy, hz = orbit_dipole_world(p, t)
     if P[FRAME] == WORLD:

@@ -501,6 +501,9 @@ def _torque_text(torque) -> str:
     if torque.get("kind") == "gravity-gradient":
         orbit = ", ".join(f"{k} = {v}" for k, v in torque.items() if k != "kind")
         return "gravity gradient, 3 μ/r³ (o × I o) along a circular orbit" + (f" ({orbit})" if orbit else " (RAX-1's)")
+    if torque.get("kind") in ("solar-pressure", "aerodynamic"):
+        keys = ", ".join(f"{k} = {v}" for k, v in torque.items() if k != "kind")
+        return f"{torque['kind']} force through a centre of pressure ({keys}; the rest the model's defaults)"
     rest = ", ".join(f"{k} = {v}" for k, v in torque.items() if k not in ("kind", "field", "dipole"))
     dipole = f", dipole {torque['dipole']} A·m² (body frame)" if "dipole" in torque else ", the MJCF's dipole"
     return f"magnetic, field {torque.get('field')}" + dipole + (f" ({rest})" if rest else "")
