@@ -738,7 +738,7 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         "# docs/scenarios.md); with a torque, the reference is \"dop853\".",
         "",
         "[study]",
-        f"reference = \"{reference}\"   # \"exact\": the closed form (torque free, or Lagrange's top); else \"dop853\" "
+        f"reference = \"{reference}\"   # \"exact\": the closed form (torque free, Lagrange's top, the axisymmetric gyrostat); else \"dop853\" "
         "or \"fine\"",
         f"steps = {_toml_list(steps)}   # [s], the full study",
         f"quick_steps = {_toml_list(quick)}   # [s], --quick",
