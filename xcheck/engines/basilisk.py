@@ -53,6 +53,7 @@ import numpy as np
 from .. import rotations as rot
 from ..fields.kernel import MU0
 from ..fields.models import ConstantTorque, MagneticTorque, SumTorque
+from ..fields.orbit import GravityGradientTorque
 from ..trajectory import (
     Trajectory,
     check_initial_state,
@@ -268,8 +269,8 @@ def input_order(kind: str | None, field=None) -> int | None:
     time-dependent is held: a constant, or a field fixed in time, is exact; a time-dependent field is written at
     each step's midpoint (2); a callable's torque is taken at each step's start (1). Read both where a study is
     planned (:mod:`xcheck.runners`, from the scenario's torque) and where the run is built (here)."""
-    if kind in (None, "constant", "solar-pressure"):  # solar pressure: a force fixed in the world, written once
-        return None
+    if kind in (None, "constant", "solar-pressure", "gravity-gradient"):  # a force fixed in the world, written
+        return None  # once; the gravity gradient by Basilisk's own effector at every stage
     if kind == "aerodynamic":  # a force that turns with the orbit: written at each step's midpoint
         return 2
     if kind == "magnetic":
@@ -288,6 +289,8 @@ def _torque_input(torque, sc, sim, b, ns: int, n: int):
         return " + ".join(note for note, _ in inputs), (min(orders) if orders else None)
     if getattr(torque, "conserves_momentum", False):  # a gyrostat's wheels: Basilisk's own effector is their model
         return _reaction_wheels(torque, sc, sim)
+    if isinstance(torque, GravityGradientTorque):
+        return _gravity_gradient(torque, sc, sim)
     if isinstance(torque, ConstantTorque):
         ext = _ext_torque(sc, sim, b)
         ext.extTorquePntB_B = [[float(x)] for x in torque.P]
@@ -307,6 +310,33 @@ def _torque_input(torque, sc, sim, b, ns: int, n: int):
         ext.extTorquePntB_B = [[float(x)] for x in np.asarray(torque(t, rot.mrp_to_quat(sigma), omega), float)]
     _before_each_step(sim, sc, step_input, ns)
     return "extForceTorque, set before every step to the torque at the step's start, held", input_order("callable")
+
+
+def _gravity_gradient(torque, sc, sim):
+    """The gravity gradient as Basilisk's own ``GravityGradientEffector`` (issue 28): the spacecraft flies the same
+    circular orbit inside Basilisk (a point-mass Earth of our mu, the orbit's position and velocity at t = 0), and
+    the effector takes its position, attitude and whole inertia at every stage of the integrator: nothing held."""
+    from Basilisk.simulation import GravityGradientEffector
+    from Basilisk.utilities import simIncludeGravBody
+
+    from ..fields.kernel import orbit_direction, orbit_velocity_direction
+    from ..fields.orbit import MU_EARTH
+
+    _, n, inc, raan, u0 = torque.P[9:14]
+    sc.hub.r_CN_NInit = [[float(torque.a * x)] for x in orbit_direction(n, inc, raan, u0, 0.0)]
+    sc.hub.v_CN_NInit = [[float(torque.a * n * x)] for x in orbit_velocity_direction(n, inc, raan, u0, 0.0)]
+    gravity = simIncludeGravBody.gravBodyFactory()
+    earth = gravity.createCustomGravObject("earth", MU_EARTH)
+    earth.isCentralBody = True
+    gravity.addBodiesTo(sc)
+    effector = GravityGradientEffector.GravityGradientEffector()
+    effector.ModelTag = "xcheck-gravity-gradient"
+    effector.addPlanetName(earth.planetName)
+    sc.addDynamicEffector(effector)
+    sim.add(effector, EFFECTOR_PRIORITY)
+    sim.keep += [gravity, earth]
+    return ("GravityGradientEffector on the same circular orbit flown inside Basilisk (a point-mass Earth), at every "
+            "stage"), None
 
 
 def _reaction_wheels(wheels, sc, sim):
