@@ -133,10 +133,15 @@ def ready_workers(pool) -> int:
 
 
 def _import(modules) -> None:
+    """A worker's start: import each module; ``"module:function"`` also calls that function of it (what a worker
+    prepares beyond its imports, :func:`xcheck.integrators.precompile_for_worker`)."""
     import importlib
 
     for name in modules:
-        importlib.import_module(name)
+        module, _, function = name.partition(":")
+        loaded = importlib.import_module(module)
+        if function:
+            getattr(loaded, function)()
 
 
 def _start_workers(pool: ProcessPoolExecutor, modules=()) -> None:

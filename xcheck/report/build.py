@@ -21,11 +21,13 @@ __all__ = ["ReportOutcome", "build_report", "resolve_scenarios", "worker_modules
 
 
 def worker_modules(figures: bool = True) -> tuple:
-    """What a worker imports as it starts: the study, the engines available here
+    """What a worker imports as it starts: the study (and, on a cold compile cache, some of our kernels compiled:
+    :func:`xcheck.integrators.precompile_for_worker`), the engines available here
     (:func:`xcheck.engines.warm_modules`) and matplotlib's plots (``figures``)."""
     from ..engines import warm_modules
 
-    return ("xcheck.study",) + warm_modules() + (("xcheck.report.plots",) if figures else ())
+    return ("xcheck.study", "xcheck.integrators:precompile_for_worker") + warm_modules() + (
+        ("xcheck.report.plots",) if figures else ())
 
 
 def resolve_scenarios(names) -> list:
