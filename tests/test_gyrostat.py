@@ -190,8 +190,7 @@ def test_wheel_speeds_must_match_the_wheels(tmp_path):
 
 def test_basilisk_turns_free_wheels_as_the_exact_gyrostat_does():
     """Truth: the closed form. Basilisk's ReactionWheelStateEffector (balanced wheels, the hub's inertia the whole
-    body's) under its RK4 reaches it at fourth order, its wheel's speed the reference's; a motor's pulse is
-    refused by name (not yet driven through its commands)."""
+    body's) under its RK4 reaches it at fourth order, its wheel's speed the reference's."""
     pytest.importorskip("Basilisk", reason="Basilisk (PyPI bsk, the 'basilisk' extra) is not installed here")
     from xcheck.engines.basilisk import simulate as basilisk
 
@@ -205,9 +204,25 @@ def test_basilisk_turns_free_wheels_as_the_exact_gyrostat_does():
         errors.append(np.max(rot.attitude_error(run.q, q)))
         assert np.max(np.abs(run.extras["wheel_speeds"] - torque.wheel_speeds(run.t, w))) < 1e-9
     assert errors[1] < 1e-9 and 14 < errors[0] / errors[1] < 18  # order 4: 2^4
-    with pytest.raises(ValueError, match="Basilisk: a wheel's motor pulse is not yet driven"):
-        basilisk(np.eye(3), integrator="rk4", q0=[1, 0, 0, 0], omega0=[0, 0, 1], dt=0.1, duration=1.0,
-                 torque=WheelsTorque([0, 0, 0.5], [((0, 0, 1.0), 0.1, 0.0, 0.5)], wheels=[((0, 0, 1.0), 0.01, 0.5, 0)]))
+
+
+def test_basilisk_holds_a_motors_pulse_over_each_step():
+    """Truth: DOP853. Basilisk reads a wheel's motor command (rwMotorCmdInMsg) once per step: the pulse written at
+    each step's midpoint and held is a midpoint rule, order 2 in the attitude and the wheels' speeds, as declared;
+    its recorded speeds are the wheels' at each step's end (the effector writes them before the hub integrates)."""
+    pytest.importorskip("Basilisk", reason="Basilisk (PyPI bsk, the 'basilisk' extra) is not installed here")
+    from xcheck.runners import RUNNERS
+
+    sc = resolve_scenario("tumbler-three-wheels")
+    ctx, ref = run_context(sc), scenario_reference(sc)
+    assert RUNNERS["basilisk-rk4"].order_for(sc.torque, sc.model)[0] == 2
+    att, speed = [], []
+    for dt in (1 / 64, 1 / 128):
+        run = RUNNERS["basilisk-rk4"].run(ctx, dt)
+        q, w, _ = ref.at(run.t)
+        att.append(np.max(rot.attitude_error(run.q, q)))
+        speed.append(np.max(np.abs(run.extras["wheel_speeds"] - ctx.torque.wheel_speeds(run.t, w))))
+    assert 3.5 < att[0] / att[1] < 4.5 and 3.5 < speed[0] / speed[1] < 4.5 and speed[1] < 1e-3
 
 
 def test_a_list_of_torques_is_their_sum_at_every_state(tmp_path):

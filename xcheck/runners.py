@@ -76,11 +76,12 @@ class Runner:
         """``run`` at the step ``dt`` and, for an adaptive method, the tolerance ``rtol`` (None: its defaults)."""
         return self.run(ctx, dt) if rtol is None else self.run(ctx, dt, rtol)
 
-    def order_for(self, torque: dict | None) -> tuple[int | None, str | None]:
-        """The order expected of this method with a scenario's torque, and why when it is not the method's own."""
+    def order_for(self, torque: dict | None, model=None) -> tuple[int | None, str | None]:
+        """The order expected of this method with a scenario's torque (and its ``model``'s own inputs: a gyrostat's
+        motor pulses), and why when it is not the method's own."""
         if self.order_with is None or self.expected_order is None:
             return self.expected_order, None
-        order, why = self.order_with(torque)
+        order, why = self.order_with(torque, model)
         return (self.expected_order, None) if order is None or order >= self.expected_order else (order, why)
 
 
@@ -123,22 +124,37 @@ def _basilisk_clock(dt: float) -> str | None:
     return clock_step(dt)[1]
 
 
-def _basilisk_input_order(torque: dict | None):
-    """The order Basilisk's held inputs leave with a scenario's torque, and why
+def _basilisk_input_order(torque: dict | None, model=None):
+    """The order Basilisk's held inputs leave with a scenario's torque and its model's motor pulses, and why
     (:func:`xcheck.engines.basilisk.input_order`, which the run itself reports)."""
     from .engines.basilisk import MIDPOINT_NOTE, input_order
     from .fields import FIELDS
-
     from .torque_terms import torque_terms
 
     orders = [input_order(term.get("kind"), FIELDS[term["field"]] if term.get("kind") == "magnetic" else None)
               for term in torque_terms(torque)]
+    if model is not None and _declares_pulses(model):
+        orders.append(input_order("motor-pulse"))
     orders = [o for o in orders if o is not None]
     if not orders:
         return None, None
     order = min(orders)
     return order, (MIDPOINT_NOTE if order == 2 else "Basilisk takes the torque at each step's start and holds it "
                    "over the step: first order")
+
+
+def _declares_pulses(model) -> bool:
+    """Whether an MJCF declares a motor's pulse (``<numeric name="xcheck_pulse:...">``, outside comments): read as
+    text, so that planning a study (the pytest plugin's collection) imports no MuJoCo; the model's loading checks
+    that each names a wheel's motor."""
+    import re
+    from pathlib import Path
+
+    try:
+        text = re.sub(r"<!--.*?-->", "", Path(model).read_text(encoding="utf-8", errors="replace"), flags=re.S)
+    except OSError:  # said where the model is loaded for the run
+        return False
+    return re.search(r"<numeric\s[^>]*name\s*=\s*[\"']xcheck_pulse:", text) is not None
 
 
 #: Basilisk's methods: registered when its package (the extra ``basilisk``) is installed.

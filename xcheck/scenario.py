@@ -411,11 +411,6 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
     return scenario
 
 
-#: Why a gyrostat whose motors run a pulse is not Basilisk's (yet).
-NO_BASILISK_PULSES = ("a wheel's motor pulse is not yet driven through Basilisk's reaction-wheel commands (free wheels "
-                      "are)")
-
-
 def check_scenario_model(scenario: Scenario) -> None:
     """The model must load, and the torque must be buildable for the duration: :class:`ScenarioError` naming the
     file otherwise. Imports MuJoCo (the MJCF is MuJoCo's to read)."""
@@ -427,16 +422,6 @@ def check_scenario_model(scenario: Scenario) -> None:
         raise ScenarioError(f"{scenario.path}: model: {exc}") from None
     if scenario.wheel_speeds is not None and not body.wheels:
         raise ScenarioError(f"{scenario.path}: [initial] wheel_speeds: the model {scenario.model} has no wheels")
-    if any(w.pulse for w in body.wheels):
-        from .runners import RUNNERS
-
-        basilisk = [m for m in (scenario.methods or RUNNERS) if m in RUNNERS and RUNNERS[m].engine == "basilisk"]
-        if scenario.methods is not None and basilisk:
-            raise ScenarioError(f"{scenario.path}: [study] methods: {', '.join(basilisk)}: {NO_BASILISK_PULSES}")
-        if scenario.methods is None:  # every method that can run it
-            scenario.methods = [m for m in RUNNERS if RUNNERS[m].engine != "basilisk"]
-            if basilisk:
-                scenario.assumptions = (*scenario.assumptions, f"Basilisk's methods are left out: {NO_BASILISK_PULSES}")
     try:
         body.wheel_speeds0(scenario.wheel_speeds)
     except ValueError as exc:
@@ -706,12 +691,6 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
                                f"run ({margins[sequence]:.1f} deg)")
     steps = [v for v in DEFAULT_STEPS if v <= MODEL_DURATION]
     quick = [v for v in QUICK_STEPS if v <= MODEL_DURATION]
-    wheel_methods = []
-    if any(w.pulse for w in body.wheels):  # Basilisk's wheels are free ones (a motor's pulse: not yet)
-        from .runners import RUNNERS
-
-        wheel_methods = [m for m in RUNNERS if RUNNERS[m].engine != "basilisk"]
-        assumptions.append(f"Basilisk's methods are left out: {NO_BASILISK_PULSES}")
     ref = model_ref if model_ref is not None else str(model)
     fail_list = "[" + ", ".join(f'"{m}"' for m in expected_to_fail) + "]"
     lines = [
@@ -746,9 +725,7 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         f"quick_tolerances = {_toml_list(QUICK_TOLERANCES)}",
         f"adaptive_step = {default_adaptive_step(state.omega0, MODEL_DURATION)!r}   # [s], an adaptive method's output "
         f"step (it turns the body by at most {ADAPTIVE_TURN:g} rad at the initial rate)",
-        *([f"methods = [{', '.join(json.dumps(m) for m in wheel_methods)}]   # Basilisk's left out: its "
-           "wheels take no motor pulse yet"] if wheel_methods else
-          ["# methods = [\"lie-rkmk4\", \"mujoco-rk4\"]   # every method when left out (xcheck list)"]),
+        "# methods = [\"lie-rkmk4\", \"mujoco-rk4\"]   # every method when left out (xcheck list)",
         "reference_method = \"lie-rkmk4\"   # for reference = \"fine\"",
         "reference_dt = 0.0001   # [s], for reference = \"fine\"",
         "",

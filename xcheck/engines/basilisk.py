@@ -117,7 +117,7 @@ class _Simulation:
         self.process.addNewTask(self.task, -1)
         self.total.addNewProcess(self.process)
         self.keep = []
-        self.wheel_speeds = None  # (recorder, number of wheels) of a gyrostat's ReactionWheelStateEffector
+        self.wheel_speeds = None  # (recorder, number of wheels, the effector) of a gyrostat's wheels
 
     def add(self, model, priority: int = -1):
         """Add ``model`` to the task (a higher priority runs earlier in each task call)."""
@@ -182,9 +182,15 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
               "input_order": input_order, "tolerances": tolerances,
               # RK4: four evaluations of the hub's equations a step; the adaptive ones do not report theirs
               "evaluations": 4 * n if integrator == "rk4" else None}
-    if getattr(sim, "wheel_speeds", None) is not None:  # a gyrostat's wheels, relative to the hub, as recorded
-        wheel_rec, count = sim.wheel_speeds
-        extras["wheel_speeds"] = np.asarray(wheel_rec.wheelSpeeds, dtype=float)[:, :count]
+    if getattr(sim, "wheel_speeds", None) is not None:  # a gyrostat's wheels' speeds relative to the hub
+        wheel_rec, count, effector = sim.wheel_speeds
+        # the effector writes its message as its task call begins, before the hub integrates the step: the row
+        # recorded at t_k holds the speeds at t_(k-1) (the one before the first, the initial ones twice); the last
+        # is the state the run ended with
+        recorded = np.asarray(wheel_rec.wheelSpeeds, dtype=float)[:, :count]
+        final = np.asarray(sc.dynManager.getStateObject(effector.nameOfReactionWheelOmegasState).getState(),
+                           dtype=float).ravel()[:count]
+        extras["wheel_speeds"] = np.vstack([recorded[1:], final])
     method = f"basilisk-{integrator}"
     bad = ~(np.all(np.isfinite(sigma), axis=1) & np.all(np.isfinite(omega), axis=1))
     k = int(np.argmax(bad)) if bad.any() else len(t)
@@ -271,8 +277,8 @@ def input_order(kind: str | None, field=None) -> int | None:
     planned (:mod:`xcheck.runners`, from the scenario's torque) and where the run is built (here)."""
     if kind in (None, "constant", "solar-pressure", "gravity-gradient"):  # a force fixed in the world, written
         return None  # once; the gravity gradient by Basilisk's own effector at every stage
-    if kind == "aerodynamic":  # a force that turns with the orbit: written at each step's midpoint
-        return 2
+    if kind in ("aerodynamic", "motor-pulse"):  # a force that turns with the orbit, a wheel's motor pulse: written
+        return 2  # at each step's midpoint
     if kind == "magnetic":
         return 2 if field.time_dependent else None
     return 1
@@ -288,7 +294,7 @@ def _torque_input(torque, sc, sim, b, ns: int, n: int):
         orders = [order for _, order in inputs if order is not None]
         return " + ".join(note for note, _ in inputs), (min(orders) if orders else None)
     if getattr(torque, "conserves_momentum", False):  # a gyrostat's wheels: Basilisk's own effector is their model
-        return _reaction_wheels(torque, sc, sim)
+        return _reaction_wheels(torque, sc, sim, ns, n)
     if isinstance(torque, GravityGradientTorque):
         return _gravity_gradient(torque, sc, sim)
     if isinstance(torque, ConstantTorque):
@@ -339,19 +345,21 @@ def _gravity_gradient(torque, sc, sim):
             "stage"), None
 
 
-def _reaction_wheels(wheels, sc, sim):
+def _reaction_wheels(wheels, sc, sim, ns: int, n: int):
     """A gyrostat's free wheels as Basilisk's own (issue 28): ``ReactionWheelStateEffector`` with balanced wheels
     on the hub, each its spin axis, axial moment ``Js`` and initial speed relative to the hub. Basilisk leaves a
     balanced wheel's mass and inertia to the hub's (its issue 600), so the hub's inertia is the whole body's,
     ours plus each wheel's axial moment; its equations take the axial spin back out (the gyrostat's). The wheels'
-    speeds are integrated as Basilisk states, in every stage. A motor's pulse is refused by name: its command
-    would be a held input, not yet measured."""
+    speeds are integrated as Basilisk states, in every stage. A motor's pulse is its command in
+    ``rwMotorCmdInMsg``, written at each step's midpoint and held over the step (a midpoint rule: order 2), by the
+    compiled held-input module; three wheels at most carry one."""
     from Basilisk.architecture import messaging
     from Basilisk.simulation import reactionWheelStateEffector
 
-    if len(wheels.commands):
-        raise ValueError("Basilisk: a wheel's motor pulse is not yet driven through its rwMotorCmdInMsg (issue 28); "
-                         "Basilisk runs gyrostats with free wheels")
+    commanded = [k for k, wheel in enumerate(wheels.wheels) if wheel[3] is not None]
+    if any(k >= 3 for k in commanded):
+        raise ValueError("Basilisk: a motor pulse on a fourth wheel is not driven (the held input writes three "
+                         "commands); order the MJCF's wheels with the motors first")
     hub = np.array(sc.hub.IHubPntBc_B, dtype=float)
     effector = reactionWheelStateEffector.ReactionWheelStateEffector()
     effector.ModelTag = "xcheck-wheels"
@@ -382,9 +390,21 @@ def _reaction_wheels(wheels, sc, sim):
     sc.hub.IHubPntBc_B = hub.tolist()
     sc.addStateEffector(effector)
     sim.add(effector, EFFECTOR_PRIORITY)
-    sim.wheel_speeds = (sim.add(effector.rwSpeedOutMsg.recorder()), len(wheels.wheels))
-    return (f"ReactionWheelStateEffector: {len(wheels.wheels)} balanced free wheel(s), their speeds Basilisk states "
-            "(the hub's inertia the whole body's)"), None
+    sim.wheel_speeds = (sim.add(effector.rwSpeedOutMsg.recorder()), len(wheels.wheels), effector)
+    note = (f"ReactionWheelStateEffector: {len(wheels.wheels)} balanced wheel(s), their speeds Basilisk states (the "
+            "hub's inertia the whole body's)")
+    if not commanded:
+        return note, None
+    t = _step_midpoints(ns, n)
+    table = np.zeros((n, 3))
+    _, pulses = wheels._pulses(t)  # each command's value at each step's midpoint, in the wheels' order
+    for k in commanded:
+        table[:, k] = pulses[:, wheels.wheels[k][3]]
+    message = messaging.ArrayMotorTorqueMsg()
+    effector.rwMotorCmdInMsg.subscribeTo(message)
+    _held_rows(sim, message, table, ns)
+    return (note + "; the motors' pulses in rwMotorCmdInMsg at each step's midpoint, held over the step",
+            input_order("motor-pulse"))
 
 
 def _mtb(torque, sc, sim, b, ns: int, n: int):

@@ -563,7 +563,7 @@ def engines_compared(st) -> list:
         for m in ms:
             runner = RUNNERS[m.name]
             diffs = pairs.get((m.name, runner.twin))
-            reason = runner.order_for(st.scenario.torque)[1]
+            reason = runner.order_for(st.scenario.torque, st.scenario.model)[1]
             if diffs:
                 twin = RUNNERS[runner.twin]
                 if reason is None:

@@ -179,7 +179,7 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
             order, local, note = None, [], adaptive_note(runs, fit)
             within = {k: StepWithin(None, w.wall_time, w.how, rtol=w.dt) for k, w in within.items()}
         methods[name] = MethodResult(name=name, engine=runner.engine,
-                                     expected_order=runner.order_for(scenario.torque)[0],
+                                     expected_order=runner.order_for(scenario.torque, scenario.model)[0],
                                      runs=runs, observed_order=order, order_note=note,
                                      local_orders=local, within=within)
         if res.series is not None:

@@ -135,7 +135,7 @@ def _plans(scenario: Scenario, methods, quick: bool) -> dict[str, Plan]:
     out = {}
     for m in methods:
         runner = RUNNERS[m]
-        order, held = runner.order_for(scenario.torque)
+        order, held = runner.order_for(scenario.torque, scenario.model)
         out[m] = Plan(order=order, torque_free=torque_free, quick=quick,
                       agreement=runner.agreement and ours4 and held is None)
     return out
