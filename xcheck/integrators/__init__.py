@@ -35,7 +35,7 @@ __all__ = ["integrate", "integrate_batch", "METHODS", "Method", "BatchResult", "
 
 #: The kernels a worker compiles as it starts on a cold compile cache, while this process compiles the others: the
 #: ones this process comes to last (it takes a study's methods from the back), compiled here first.
-WORKER_PRECOMPILES = ("euler-rk4", "formulation-1", "formulation-2", "lie-rkmk4", "lie-cf4", "dcm-rk4")
+WORKER_PRECOMPILES = ("euler-rk4", "formulation-1", "formulation-2", "lie-rkmk4", "lie-cf4", "dcm-rk4", "gibbs-rk4")
 
 #: An Euler-angle run stops when ``|det J|`` (``|sin|`` or ``|cos|`` of the middle angle) drops below this.
 SINGULAR_TOL = 1e-10
