@@ -268,3 +268,27 @@ def test_a_sweep_switches_torque_terms_on_and_off(tmp_path):
     assert apply_cell(sc, {"torques": []}).torque is None
     assert apply_cell(sc, {"torques": ["magnetic", "gravity-gradient"]}).torque == sc.torque
     assert apply_cell(sc, {"wheel_speed_scale": 0.5}).wheel_speeds == (314.15,)
+
+
+def test_the_full_report_draws_how_the_wheels_stiffen_the_attitude():
+    """A body with wheels gets the figure of its wheels' axis with the wheels and with them stopped; a body without
+    gets none. Truth for the axisymmetric gyrostat: with the wheel its symmetry axis cones about the fixed momentum
+    H at a constant angle, so it never turns more than twice that angle from its start."""
+    from xcheck.report.plots import _wheels_stiffness
+    from xcheck.study import run_study
+
+    st = run_study(resolve_scenario("gyrostat-axisymmetric"), methods=["lie-rkmk4"], quick=True, workers=1,
+                   timing=False)
+    (file, caption, png), = _wheels_stiffness(st.data, "g")
+    assert file == "g-wheels-stiffness.png" and png.startswith(b"\x89PNG") and "stopped" in caption
+    rigid = run_study(resolve_scenario("tumbler-intermediate-axis"), methods=["lie-rkmk4"], quick=True, workers=1,
+                      timing=False)
+    assert _wheels_stiffness(rigid.data, "t") == []
+    body, sc = load_body(GYROSTAT), resolve_scenario("gyrostat-axisymmetric")
+    torque = body.own_torque(sc.omega0, sc.wheel_speeds)
+    H = body.inertia @ sc.omega0 + torque.h0
+    cone = np.arccos(abs(H @ torque.h0) / (np.linalg.norm(H) * np.linalg.norm(torque.h0)))
+    run = integrate("lie-rkmk4", body.inertia, sc.q0, sc.omega0, dt=1 / 512, duration=10.0, torque=torque)
+    e = torque.h0 / np.linalg.norm(torque.h0)
+    turned = np.arccos(np.clip(rot.quat_rotate(run.q, e) @ rot.quat_rotate(run.q[0], e), -1, 1))
+    assert np.max(turned) <= 2 * cone + 1e-9 and np.max(turned) > 1.9 * cone  # it reaches the far side

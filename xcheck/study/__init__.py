@@ -70,7 +70,8 @@ class StudyResult:
                 "versions": self.versions, "methods": {n: m.to_json() for n, m in self.methods.items()},
                 "checks": [c.to_json() for c in self.checks], "passed": self.passed,
                 "comparisons": list(self.comparisons),
-                **({"assumptions": list(sc.assumptions)} if sc.assumptions else {})}
+                **({"assumptions": list(sc.assumptions)} if sc.assumptions else {}),
+                **({"wheel_speeds": list(sc.wheel_speeds)} if sc.wheel_speeds is not None else {})}
 
 
 def default_methods(scenario: Scenario) -> list[str]:
