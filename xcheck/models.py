@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import copy
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import mujoco
@@ -47,13 +47,14 @@ class Wheel:
     [kg m^2]; ``dof``/``qpos``: its hinge's ``qvel``/``qpos`` address; ``actuator``: the motor driving it (-1:
     none) and ``gain``, the torque [N m] a unit ``ctrl`` exerts on the wheel; ``pulse``: its command ``(peak, t0,
     t1)`` (None: a free wheel); ``speed``: its speed relative to the body [rad/s] in the model's first keyframe
-    (0 without one)."""
+    (0 without one); ``body``: its body's id."""
 
     name: str
     axis: tuple
     moment: float
     dof: int
     qpos: int
+    body: int = -1
     actuator: int = -1
     gain: float = 1.0
     pulse: tuple | None = None
@@ -363,9 +364,9 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
         R = rot.quat_to_dcm(iquat)
         inertia = R @ np.diag(moments) @ R.T
     else:
-        mass, com, inertia = composite_inertia(model, body_id, wheels=[model.jnt_bodyid[w.qpos_joint] for w in wheels])
+        mass, com, inertia = composite_inertia(model, body_id, wheels=[w.body for w in wheels])
         for w in wheels:  # the gyrostat's inertia: the wheels' axial spin is their momentum's (WheelsTorque)
-            inertia = inertia - w.wheel.moment * np.outer(w.wheel.axis, w.wheel.axis)
+            inertia = inertia - w.moment * np.outer(w.axis, w.axis)
         moments, axes = np.linalg.eigh(inertia)  # the principal moments and axes in the body frame (sorted)
         if np.linalg.det(axes) < 0:
             axes[:, 2] *= -1
@@ -374,7 +375,7 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
             notes.append(f"{len(parts)} bodies without joints welded into one rigid body: mass {mass:g} kg, centre "
                          f"of mass {np.round(com, 9).tolist()} m in the frame of '{body_name}'")
         if wheels:
-            notes.append(f"a gyrostat: {len(wheels)} axisymmetric wheel(s) ({', '.join(w.wheel.name for w in wheels)}); "
+            notes.append(f"a gyrostat: {len(wheels)} axisymmetric wheel(s) ({', '.join(w.name for w in wheels)}); "
                          "the inertia is the whole body's about its centre of mass less each wheel's axial moment, "
                          "the wheels' momentum a torque of the model's own")
     centre, reference = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
@@ -402,7 +403,7 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
                         notes=tuple(notes), body_id=body_id, qpos_adr=int(model.jnt_qposadr[jnt]), dof_adr=dof,
                         model_moments=tuple(moments.tolist()), model_iquat=tuple(np.asarray(iquat).tolist()),
                         joint=joint, centre=tuple(centre.tolist()), gravity=tuple(gravity.tolist()),
-                        reference_quat=tuple(reference.tolist()), wheels=tuple(w.wheel for w in wheels))
+                        reference_quat=tuple(reference.tolist()), wheels=tuple(wheels))
     except ValueError as exc:
         raise ModelError(f"{where}: body '{body_name}': {exc}") from None
     return model, body
@@ -438,12 +439,6 @@ def composite_inertia(model, root: int, wheels=()) -> tuple[float, np.ndarray, n
         d = c - com
         inertia += R @ np.diag(model.body_inertia[b]) @ R.T + m * (d @ d * np.eye(3) - np.outer(d, d))
     return mass, com, 0.5 * (inertia + inertia.T)
-
-
-@dataclass(frozen=True)
-class _Found:
-    wheel: Wheel
-    qpos_joint: int
 
 
 def _wheels(model, root: int, joint: str, hinges, refuse, name) -> list:
@@ -492,9 +487,9 @@ def _wheels(model, root: int, joint: str, hinges, refuse, name) -> list:
                    "kg m^2 in its frame has no two equal moments about that axis); xcheck models balanced, "
                    "axisymmetric wheels")
         speed = float(model.key_qvel[0][dof]) if model.nkey else 0.0
-        found.append(_Found(Wheel(name=jname, axis=tuple((pose[b][1] @ axis).tolist()), moment=Js, dof=dof,
-                                  qpos=int(model.jnt_qposadr[j]), speed=speed), j))
-    by_joint = {f.qpos_joint: k for k, f in enumerate(found)}
+        found.append(Wheel(name=jname, axis=tuple((pose[b][1] @ axis).tolist()), moment=Js, dof=dof,
+                           qpos=int(model.jnt_qposadr[j]), body=b, speed=speed))
+    by_joint = {j: k for k, j in enumerate(hinges)}
     for i in range(model.nu):
         aname = name(mujoco.mjtObj.mjOBJ_ACTUATOR, i)
         target = int(model.actuator_trnid[i, 0])
@@ -506,14 +501,14 @@ def _wheels(model, root: int, joint: str, hinges, refuse, name) -> list:
             refuse(f"actuator '{aname}': xcheck applies its own torques; allowed are only {ALLOWED_ACTUATORS}. A "
                    "velocity or position servo's result depends on its gains: not modelled")
         k = by_joint[target]
-        if found[k].wheel.actuator >= 0:
-            refuse(f"actuator '{aname}': wheel '{found[k].wheel.name}' has a motor already")
+        if found[k].actuator >= 0:
+            refuse(f"actuator '{aname}': wheel '{found[k].name}' has a motor already")
         gain = float(model.actuator_gear[i, 0] * model.actuator_gainprm[i, 0])
         if gain == 0:
             refuse(f"actuator '{aname}': its gear times gain is 0: it exerts nothing")
-        found[k] = _Found(_replace(found[k].wheel, actuator=i, gain=gain), found[k].qpos_joint)
-    actuators = {name(mujoco.mjtObj.mjOBJ_ACTUATOR, f.wheel.actuator): k for k, f in enumerate(found)
-                 if f.wheel.actuator >= 0}
+        found[k] = replace(found[k], actuator=i, gain=gain)
+    actuators = {name(mujoco.mjtObj.mjOBJ_ACTUATOR, f.actuator): k for k, f in enumerate(found)
+                 if f.actuator >= 0}
     for n in range(model.nnumeric):
         nname = name(mujoco.mjtObj.mjOBJ_NUMERIC, n)
         if not nname.startswith(PULSE_NUMERIC):
@@ -528,23 +523,16 @@ def _wheels(model, root: int, joint: str, hinges, refuse, name) -> list:
             refuse(f"<numeric name=\"{nname}\">: expected data=\"peak t0 t1\" (a torque pulse of peak [N m] over "
                    f"[t0, t1] s, 0 <= t0 < t1), got {values.tolist()}")
         k = actuators[aname]
-        i = found[k].wheel.actuator
+        i = found[k].actuator
         peak = float(values[0])
         for what, limited, lo_hi, value in (("ctrlrange", model.actuator_ctrllimited[i], model.actuator_ctrlrange[i],
-                                             peak / found[k].wheel.gain),
+                                             peak / found[k].gain),
                                             ("forcerange", model.actuator_forcelimited[i], model.actuator_forcerange[i],
                                              peak)):
             if limited and not (lo_hi[0] <= min(0.0, value) and max(0.0, value) <= lo_hi[1]):
                 refuse(f"actuator '{aname}': its pulse needs {value:g} within its {what} {lo_hi.tolist()}")
-        found[k] = _Found(_replace(found[k].wheel, pulse=(peak, float(values[1]), float(values[2]))),
-                          found[k].qpos_joint)
+        found[k] = replace(found[k], pulse=(peak, float(values[1]), float(values[2])))
     return found
-
-
-def _replace(wheel: Wheel, **changes) -> Wheel:
-    from dataclasses import replace
-
-    return replace(wheel, **changes)
 
 
 def _possible_contact(model):

@@ -233,7 +233,7 @@ def exact_gyrostat(inertia, q0, omega0, t, h):
     if not np.any(h):
         return exact_torque_free(I, q0, omega0, t)
     e = h / np.linalg.norm(h)
-    F = _frame_with_z(e)  # a frame of the body whose z is e: principal, as I is symmetric about e
+    F = rot.frame_with_z(e)  # a frame of the body whose z is e: principal, as I is symmetric about e
     qF = rot.dcm_to_quat(F)
     A, C = symmetric_moments(I, e)
     w = F.T @ omega0
@@ -299,8 +299,8 @@ def lagrange_top(inertia, q0, omega0, t, *, centre, force):
     e3 = c / np.linalg.norm(c)
     C = e3 @ I @ e3
     A = 0.5 * (np.trace(I) - C)
-    B = _frame_with_z(e3)  # body components of the top's axes (columns), the third along c
-    G = _frame_with_z(-F / np.linalg.norm(F))  # world components of the vertical frame, its z upward
+    B = rot.frame_with_z(e3)  # body components of the top's axes (columns), the third along c
+    G = rot.frame_with_z(-F / np.linalg.norm(F))  # world components of the vertical frame, its z upward
     qB, qG = rot.dcm_to_quat(B), rot.dcm_to_quat(G)
     qT = rot.quat_mul(rot.quat_mul(rot.quat_conj(qG), q0), qB)  # top frame -> vertical frame
     wT = B.T @ omega0
@@ -355,14 +355,6 @@ def lagrange_top(inertia, q0, omega0, t, *, centre, force):
     q = rot.quat_mul(rot.quat_mul(qG, rot.euler_to_quat(angles, "313")), rot.quat_conj(qB))
     omega = rot.euler_rates_to_omega(angles, rates, "313") @ B.T
     return continuous_quaternions(q), omega
-
-
-def _frame_with_z(z) -> np.ndarray:
-    """A proper orthonormal frame (columns) whose third axis is the unit vector ``z``."""
-    helper = np.eye(3)[np.argmin(np.abs(z))]
-    x = np.cross(helper, z)
-    x /= np.linalg.norm(x)
-    return np.stack([x, np.cross(z, x), z], axis=1)
 
 
 def _top_roots(f, beta, alpha, a, b, u0):

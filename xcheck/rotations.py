@@ -28,6 +28,7 @@ import warnings
 import numpy as np
 
 __all__ = [
+    "frame_with_z",
     "EULER_SEQUENCES",
     "GIMBAL_LOCK_TOL",
     "GimbalLockWarning",
@@ -532,6 +533,14 @@ def orthonormalize_dcm(R, method: str = "bjorck", *, tol: float = 10 * EPS, max_
             return X
         X = 1.5 * X - 0.5 * X @ XtX
     raise ValueError(f"R: the Björck-Bowie iteration did not converge in {max_iter} iterations")
+
+
+def frame_with_z(z) -> np.ndarray:
+    """A proper orthonormal frame (columns) whose third axis is the unit vector ``z``."""
+    helper = np.eye(3)[np.argmin(np.abs(z))]
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    return np.stack([x, np.cross(z, x), z], axis=1)
 
 
 def attitude_error(qa, qb):

@@ -371,10 +371,9 @@ def _reaction_wheels(wheels, sc, sim, ns: int, n: int):
         rw.RWModel = messaging.BalancedWheels
         rw.Js, rw.Jt, rw.Jg = float(moment), 0.5 * float(moment), 0.5 * float(moment)
         rw.gsHat_B = [[float(x)] for x in a]
-        w2 = np.cross(a, [1.0, 0.0, 0.0]) if abs(a[0]) < 0.99 else np.cross(a, [0.0, 1.0, 0.0])
-        w2 /= np.linalg.norm(w2)
-        rw.w2Hat0_B = [[float(x)] for x in w2]
-        rw.w3Hat0_B = [[float(x)] for x in np.cross(a, w2)]
+        frame = rot.frame_with_z(a)  # the wheel's transverse axes (a balanced wheel's are immaterial)
+        rw.w2Hat0_B = [[float(x)] for x in frame[:, 0]]
+        rw.w3Hat0_B = [[float(x)] for x in frame[:, 1]]
         rw.rWB_B = [[0.0], [0.0], [0.0]]
         rw.Omega = float(p0 / moment - a @ w0)  # [rad/s], relative to the hub
         rw.theta = 0.0

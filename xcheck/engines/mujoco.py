@@ -239,21 +239,19 @@ def _stepped(m, d, n, last_h, body, torque, torque_mode):
         def attitude():
             q_view[:] = body.from_joint(joint_q)
             return q_view
-    motors = _motor_commands(body, d)
     if torque is None:
         def body_torque(t, out):
-            motors(t)
+            pass
     elif isinstance(torque, TorqueModel):
         kind, P, T = torque.kernel_data()
 
         def body_torque(t, out):
-            motors(t)
             torque_eval(kind, P, T, t, attitude(), w_view, out)
     else:
         def body_torque(t, out):
-            motors(t)
             q = attitude()
             out[:] = np.asarray(torque(t, q / np.linalg.norm(q), w_view.copy()), dtype=float)
+    body_torque = _with_motor_commands(body, d, body_torque)
 
     if torque_mode == "callback":
         def callback(model, data):
@@ -277,18 +275,22 @@ def _stepped(m, d, n, last_h, body, torque, torque_mode):
     return qpos_out, qvel_out
 
 
-def _motor_commands(body, d):
-    """``set(t)``: a gyrostat's motors' ``ctrl`` at time ``t`` (their pulses, :func:`xcheck.fields.kernel.pulse`,
-    divided by each motor's gain); nothing to do without one. Called with the torque, at every stage."""
+def _with_motor_commands(body, d, body_torque):
+    """``body_torque`` that also sets a gyrostat's motors' ``ctrl`` at each stage's time (their pulses,
+    :func:`xcheck.fields.kernel.pulse`, divided by each motor's gain); ``body_torque`` itself without one (the
+    callback of every other run keeps its one call)."""
     from ..fields.kernel import pulse
 
     driven = [(w.actuator, w.gain, *w.pulse) for w in body.wheels if w.pulse is not None]
+    if not driven:
+        return body_torque
     ctrl = d.ctrl
 
-    def set_commands(t):
+    def with_commands(t, out):
         for actuator, gain, peak, t0, t1 in driven:
             ctrl[actuator] = pulse(peak, t0, t1, t)[1] / gain
-    return set_commands if driven else (lambda t: None)
+        body_torque(t, out)
+    return with_commands
 
 
 def _loop(m, d, n, last_h, qpos_out, qvel_out, before_step=None):

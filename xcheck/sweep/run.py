@@ -16,6 +16,7 @@ wall times differ. Nothing here imports MuJoCo or matplotlib: the engine is impo
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -171,12 +172,22 @@ def _batch_key(sc) -> str:
     """Cells with the same key differ only in initial state or inertia: one integrate_batch call serves them. A
     gyrostat's wheels' momentum is part of its torque, and it follows the body rate and the wheels' speeds: its
     cells share a batch only where both are the same."""
+    return json.dumps([str(sc.model), sc.torque, sc.duration, sc.sequence, sc.reference, sc.reference_method,
+                       sc.reference_dt, *((list(sc.omega0), sc.wheel_speeds) if _has_wheels(*_stamp(sc.model)) else ())],
+                      sort_keys=True, default=str)
+
+
+def _stamp(model) -> tuple[str, int]:
+    return str(model), os.stat(model).st_mtime_ns
+
+
+@functools.lru_cache(maxsize=64)
+def _has_wheels(model: str, mtime_ns: int) -> bool:
+    """Whether a model (as it is at ``mtime_ns``) is a gyrostat: loaded once per model while a sweep is planned,
+    not once per cell."""
     from ..models import load_body
 
-    wheels = bool(load_body(sc.model).wheels)
-    return json.dumps([str(sc.model), sc.torque, sc.duration, sc.sequence, sc.reference, sc.reference_method,
-                       sc.reference_dt, *((list(sc.omega0), sc.wheel_speeds) if wheels else ())],
-                      sort_keys=True, default=str)
+    return bool(load_body(model).wheels)
 
 
 def plan_chunks(spec: SweepSpec, cells: list[dict]) -> list[list[tuple]]:
