@@ -16,7 +16,8 @@ from xcheck.scenario import (
 
 def test_every_bundled_scenario_loads():
     names = list(bundled_scenarios())
-    assert names == ["cubesat-parts-orbit-field", "gyroscope-near-singular", "gyroscope-nonsingular",
+    assert names == ["boxes-complex", "boxes-simple", "cubesat-parts-orbit-field", "gyroscope-near-singular",
+                     "gyroscope-nonsingular",
                      "gyroscope-singular", "gyrostat-axisymmetric", "heavy-top-looping", "heavy-top-near-vertical",
                      "heavy-top", "rax1-body-field", "rax1-momentum-bias", "rax1-orbit-field",
                      "tumbler-intermediate-axis", "tumbler-three-wheels"]

@@ -386,6 +386,58 @@ def _cmd_bench(args) -> int:
     return bench_main(argv)
 
 
+def _cmd_league(args) -> int:
+    """The boxes benchmark's league table: MuJoCo's integrators and ours beside the published engines."""
+    from .league.boxes import STEPS
+    from .league.run import QUICK_STEPS, run_league
+    from .league.table import checks, markdown, table_rows
+    from .report.io import check_output_file, write_json_atomic
+
+    steps = tuple(_csv_list(args.steps, float, "--steps")) if args.steps else (QUICK_STEPS if args.quick else STEPS)
+    if args.steps and args.quick:
+        raise UsageError("--steps and --quick: give one (--quick is --steps 0.001)")
+    for dt in steps:
+        if dt > 0.01:
+            raise UsageError(f"--steps: {dt:g} s is coarser than the boxes can be stepped (at most 0.01 s)")
+    out = check_output_file(args.out, "--out", suffixes=(".md",)) if args.out else None
+    if args.json:
+        check_output_file(args.json, "--json", suffixes=(".json",))
+    workers = args.workers or os.cpu_count() or 1
+    from .pool import worker_pool
+
+    with worker_pool(workers, warm=("xcheck.league.run", "mujoco")) if workers > 1 else nullcontext() as pool:
+        rows = run_league(steps, pool=pool, progress=Progress())
+    for case in ("complex", "simple"):
+        head, body = table_rows(rows, case, steps)
+        print(f"\nboxes, {case} case")
+        widths = [max(len(h), *(len(r[k]) for r in body)) for k, h in enumerate(head)]
+        print("  ".join(h.ljust(w) for h, w in zip(head, widths)))
+        for r in body:
+            print("  ".join(c.ljust(w) for c, w in zip(r, widths)))
+    failed = [c for c in checks(rows) if not c[1]]
+    for what, _, why in failed:
+        print(f"FAILED {what}: {why}")
+    if args.json:
+        from .versions import versions
+
+        write_json_atomic(args.json, {"schema": "xcheck.league/1", "versions": versions(), "steps": list(steps),
+                                      "rows": rows})
+    if out is not None:
+        from .league.table import draw
+        from .report.io import write_bytes_atomic, write_text_atomic
+        from .versions import versions
+
+        v = versions()
+        file, _, png = draw(rows, steps)
+        write_bytes_atomic(out.parent / file, png)
+        command = "xcheck league" + (" --quick" if args.quick else "") + (f" --steps {args.steps}" if args.steps else "")
+        text = markdown(rows, steps, version=v["xcheck"], versions={k: v[k] for k in ("mujoco", "numpy", "scipy")},
+                        command=f"{command} --out {out.name}")
+        write_text_atomic(out, text + f"\n![{file}]({file})\n")
+        print(f"league table: {out} (figure {out.parent / file})")
+    return EXIT_CHECK_FAILED if failed else EXIT_OK
+
+
 def _cmd_sweep(args) -> int:
     """A sweep: every cell a cross-check (see :mod:`xcheck.sweep.spec` and :mod:`xcheck.sweep.run`)."""
     from .report.io import check_output_dir
@@ -593,6 +645,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="PATH", help="write the study's results as JSON")
     p.add_argument("--out", metavar="DIR", help="also write a report (index.html, figures) into DIR/<time>/")
     p.set_defaults(func=_cmd_determine)
+
+    p = sub.add_parser("league", help="the boxes benchmark: MuJoCo's integrators and ours beside ODE, Bullet, "
+                                      "Simbody and DART's published figures")
+    p.add_argument("--quick", action="store_true", help="one step, 1e-3 s (default: the benchmark's ten, 1e-4 ... 1e-3 s)")
+    p.add_argument("--steps", metavar="DT,...", help="comma-separated steps [s] instead of the benchmark's")
+    p.add_argument("--out", metavar="FILE.md", help="write the league table as Markdown (docs/league.md), its figure "
+                                                   "beside it")
+    p.add_argument("--json", metavar="PATH", help="write every row as JSON (schema xcheck.league/1)")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
+    p.set_defaults(func=_cmd_league)
 
     p = sub.add_parser("bench", help="steps per second of every method, ours and the engines'")
     p.add_argument("--json", metavar="PATH", help="write the rows as JSON (schema xcheck.bench/1)")

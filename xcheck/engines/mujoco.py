@@ -37,7 +37,7 @@ from ..trajectory import (
     time_grid,
 )
 
-__all__ = ["simulate", "control_callback", "mujoco_warnings", "INTEGRATORS"]
+__all__ = ["simulate", "free_flight", "control_callback", "mujoco_warnings", "INTEGRATORS"]
 
 INTEGRATORS = {
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
@@ -304,6 +304,33 @@ def _loop(m, d, n, last_h, qpos_out, qvel_out, before_step=None):
         qpos_out[k + 1] = d.qpos
         qvel_out[k + 1] = d.qvel
     m.opt.timestep = dt
+
+
+def free_flight(model_path, *, integrator: str, omega0, v0, gravity, dt: float, nsteps: int):
+    """MuJoCo flying a free body whole, translation and all, as the boxes benchmark does (:mod:`xcheck.league`): the
+    MJCF as written but for ``opt.gravity`` [m/s^2], the body at the origin at rest in the identity attitude with
+    ``v0`` [m/s] (world) and ``omega0`` [rad/s] (body; the identity start makes it world too), ``nsteps`` steps of
+    ``dt`` [s] through ``rollout``. Returns ``(t, c, q, v, omega)``, (nsteps + 1) rows: the centre of mass [m] (the
+    body's origin, where its MJCF puts the centre), [w, x, y, z], [m/s] world, [rad/s] body."""
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator: unknown {integrator!r}; expected one of {', '.join(INTEGRATORS)}")
+    m = mujoco.MjModel.from_xml_path(str(model_path))
+    if m.njnt != 1 or m.jnt_type[0] != mujoco.mjtJoint.mjJNT_FREE:
+        raise ValueError(f"{model_path}: free_flight takes one body on a free joint")
+    m.opt.gravity[:] = gravity
+    m.opt.integrator = INTEGRATORS[integrator]
+    m.opt.timestep = float(dt)
+    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+    d = mujoco.MjData(m)
+    d.qpos[:] = [0, 0, 0, 1, 0, 0, 0]
+    d.qvel[:] = [*v0, *omega0]
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state0 = np.empty(mujoco.mj_stateSize(m, spec))
+    mujoco.mj_getState(m, d, state0, spec)
+    out, _ = rollout.rollout(m, d, state0[None, :], nstep=int(nsteps))
+    states = np.vstack([state0, out[0]])
+    qpos, qvel = states[:, 1:8], states[:, 8:14]
+    return states[:, 0], qpos[:, :3], qpos[:, 3:7], qvel[:, :3], qvel[:, 3:6]
 
 
 def bench_extras(contexts, dt, nsteps, repeat):

@@ -99,6 +99,7 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
         marks.append(("scenarios read", time.perf_counter()))
         figures = _Figures(pool, quick) if pool is not None else None
         determinations = _start_determinations(scenarios, pool)
+        league = _start_league(scenarios, pool, quick)
         studies = run_studies(scenarios, quick=quick, progress=progress, pool=pool, workers=workers,
                               on_study=figures.submit if figures else None, here=pool is not None,
                               idle=figures.draw_one_here if figures else None)
@@ -110,16 +111,18 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
 
             bench = measure(quick=quick, repeat=1)
         determined = determination_section(determinations.values()) if determinations else None
+        league_sec = _league_section(league, quick)
         folder = write_report(studies, out, throughput=throughput_rows(studies) + (bench or []),
                               wall_time=time.perf_counter() - t0, quick=quick, pool=pool,
                               figures=figures.futures if figures else None,
                               trajectories=trajectories, marks=marks,
-                              sections=_all_sections(determined, sections))
+                              sections=_all_sections([determined, league_sec], sections))
         if written is not None:
             written(folder)
     marks.append(("workers stopped", time.perf_counter()))
     return ReportOutcome(studies=studies, folder=folder, marks=marks,
-                         determination_passed=determined is None or determined.passed)
+                         determination_passed=(determined is None or determined.passed)
+                         and (league_sec is None or league_sec.passed))
 
 
 class _Figures:
@@ -190,15 +193,42 @@ def determination_section(determinations) -> Section:
                    passed=rep["passed"] and all(d["passed"] for d in data))
 
 
-def _all_sections(first: Section | None, sections):
-    """The report's sections: ``first`` (the determination studies', when any scenario has a ``[determination]``),
-    then ``sections``' own (the nightly's History: a function of the read-only results document, which sees the
-    determination's keys)."""
-    if first is None:
+def _start_league(scenarios, pool, quick: bool):
+    """The boxes benchmark's league rows, started in the pool (or run here) when a bundled boxes scenario is in the
+    report: ``(steps, [future or rows])``; None otherwise."""
+    from ..league.boxes import CASES
+    from ..league.run import QUICK_STEPS, REPORT_STEPS, league_tasks, mujoco_rows
+    from ..paths import BUNDLED_MODELS
+
+    bundled = {(BUNDLED_MODELS / "scenarios" / f"{c.scenario}.toml").resolve() for c in CASES.values()}
+    if not any(Path(sc.path).resolve() in bundled for sc in scenarios):
+        return None
+    steps = QUICK_STEPS if quick else REPORT_STEPS
+    # MuJoCo's runs in the workers; ours here, after the studies (a Basilisk worker never loads compiled code)
+    return steps, [pool.submit(fn, *args) if pool is not None and fn is mujoco_rows else (fn, *args)
+                   for fn, *args in league_tasks(steps=steps)]
+
+
+def _league_section(league, quick: bool) -> Section | None:
+    if league is None:
+        return None
+    from ..league.table import section
+
+    steps, parts = league
+    return section([r for part in parts for r in (part.result() if hasattr(part, "result") else part[0](*part[1:]))],
+                   steps)
+
+
+def _all_sections(first, sections):
+    """The report's sections: ``first``'s (the determination studies', when any scenario has a ``[determination]``;
+    the league table's, when a bundled boxes scenario is reported; Nones left out), then ``sections``' own (the
+    nightly's History: a function of the read-only results document, which sees the first ones' keys)."""
+    first = [f for f in first if f is not None]
+    if not first:
         return sections or ()
     if not callable(sections):
-        return [first, *(sections or ())]
+        return [*first, *(sections or ())]
 
     def made(results):
-        return [first, *sections(MappingProxyType(with_sections(dict(results), [first])))]
+        return [*first, *sections(MappingProxyType(with_sections(dict(results), first)))]
     return made
