@@ -23,3 +23,23 @@ import os  # noqa: E402
 from xcheck._jit import user_cache_home  # noqa: E402
 
 os.environ.setdefault("XCHECK_CACHE_DIR", str(user_cache_home()))
+
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+
+import pytest  # noqa: E402
+
+#: An older MuJoCo release the version matrix and the release table install (its free-body RK4 is second order)
+OLD_MUJOCO = "3.2.7"
+
+
+@pytest.fixture(scope="session")
+def package_index():
+    """The package index, reachable: the version matrix and the release table install MuJoCo releases from it;
+    skipped, saying so, where it is not."""
+    probe = os.path.join(os.path.expanduser("~"), ".cache", "xcheck-pip-probe")
+    proc = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check", "-q",
+                           "-d", probe, f"mujoco=={OLD_MUJOCO}"], capture_output=True, text=True, timeout=300)
+    if proc.returncode != 0:
+        pytest.skip(f"the package index is not reachable (pip download mujoco=={OLD_MUJOCO} failed): the version "
+                    "matrix needs it to install MuJoCo releases")

@@ -286,21 +286,7 @@ def test_a_killed_nightly_records_nothing_and_leaves_the_history_readable(tmp_pa
 # -----------------------------------------------------------------------------------------------------
 # the MuJoCo version matrix
 # -----------------------------------------------------------------------------------------------------
-OLD_MUJOCO = "3.2.7"
-
-
-def _index_reachable() -> bool:
-    proc = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check",
-                           "-q", "-d", os.devnull if False else str(Path.home() / ".cache" / "xcheck-pip-probe"),
-                           f"mujoco=={OLD_MUJOCO}"], capture_output=True, text=True, timeout=300)
-    return proc.returncode == 0
-
-
-@pytest.fixture(scope="module")
-def package_index():
-    if not _index_reachable():
-        pytest.skip(f"the package index is not reachable (pip download mujoco=={OLD_MUJOCO} failed): the version "
-                    "matrix needs it to install MuJoCo releases")
+from conftest import OLD_MUJOCO  # noqa: E402
 
 
 def test_the_version_matrix_runs_each_release_and_reports_the_uninstallable(tmp_path, package_index):

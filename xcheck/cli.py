@@ -438,6 +438,77 @@ def _cmd_league(args) -> int:
     return EXIT_CHECK_FAILED if failed else EXIT_OK
 
 
+def _cmd_releases(args) -> int:
+    """Every MuJoCo release on the bundled scenarios and the boxes: docs/mujoco-releases.md, or a bisection."""
+    from .history.matrix import parse_versions
+    from .league.releases import (
+        PROBE_SCENARIO,
+        RELEASES,
+        ReleaseError,
+        bisect,
+        is_fourth_order,
+        markdown,
+        release_key,
+        rk4_order,
+        run_probe,
+    )
+    from .report.io import check_output_file, write_json_atomic, write_text_atomic
+
+    try:
+        versions = parse_versions(args.mujoco) if args.mujoco else list(RELEASES)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    out = check_output_file(args.out, "--out", suffixes=(".md",)) if args.out else None
+    if args.json:
+        check_output_file(args.json, "--json", suffixes=(".json",))
+    if args.bisect:
+        if out is not None:
+            raise UsageError("--out: a bisection probes only some releases; run without --bisect for the table")
+
+        def good(v):
+            try:
+                return is_fourth_order(run_probe(v, scenarios=[PROBE_SCENARIO]))
+            except ReleaseError as exc:
+                raise UsageError(str(exc)) from None
+
+        first, seen = bisect(versions, good)
+        probed = ", ".join(f"{v} {'4th' if ok else 'not 4th'}" for v, ok in sorted(seen.items(), key=lambda kv: release_key(kv[0])))
+        print(f"free-body RK4 ({PROBE_SCENARIO}) fourth order from: {first or f'none of {versions[0]} ... {versions[-1]}'}"
+              f" ({len(seen)} of {len(versions)} releases probed: {probed})")
+        if args.json:
+            write_json_atomic(args.json, {"schema": "xcheck.releases-bisect/1", "first_fourth_order": first,
+                                          "probed": seen})
+        return EXIT_OK
+    probes, failures = {}, {}
+    progress = Progress()
+    for k, v in enumerate(versions):
+        progress(k, len(versions), f"MuJoCo {v}")
+        try:
+            probes[v] = run_probe(v, log=lambda *a: None)
+        except ReleaseError as exc:
+            failures[v] = str(exc).split(": ", 1)[-1]
+            print(f"MuJoCo {v}: not run ({failures[v]})")
+            continue
+        d = probes[v]
+        passed = sum(s["passed"] for s in d["scenarios"].values())
+        order = rk4_order(d)
+        print(f"MuJoCo {v}: {passed} of {len(d['scenarios'])} scenarios passed; free-body RK4 order "
+              f"{'—' if order is None else f'{order:.2f}'}")
+    progress(len(versions), len(versions), "")
+    good = [v for v in versions if v in probes and is_fourth_order(probes[v])]
+    first = next((v for v in versions if v in probes and all(w in good for w in versions[versions.index(v):]
+                                                                if w in probes)), None)
+    print(f"free-body RK4 fourth order from: {first or 'none of these'}")
+    if args.json:
+        write_json_atomic(args.json, {"schema": "xcheck.releases/1", "probes": probes, "failures": failures,
+                                      "first_fourth_order": first})
+    if out is not None:
+        command = "xcheck releases" + (f" --mujoco {args.mujoco}" if args.mujoco else "") + f" --out {out.name}"
+        write_text_atomic(out, markdown(probes, failures, version=__version__, command=command, first_good=first))
+        print(f"release table: {out}")
+    return EXIT_OK
+
+
 def _cmd_sweep(args) -> int:
     """A sweep: every cell a cross-check (see :mod:`xcheck.sweep.spec` and :mod:`xcheck.sweep.run`)."""
     from .report.io import check_output_dir
@@ -655,6 +726,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="PATH", help="write every row as JSON (schema xcheck.league/1)")
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
     p.set_defaults(func=_cmd_league)
+
+    p = sub.add_parser("releases", help="every MuJoCo release from 3.2 to 4.0 on the bundled scenarios and the boxes "
+                                        "(docs/mujoco-releases.md)")
+    p.add_argument("--mujoco", metavar="VERSIONS", help="comma-separated releases (default: the newest patch of every "
+                                                        "minor release from 3.2.7 to 4.0.0)")
+    p.add_argument("--out", metavar="FILE.md", help="write the release table as Markdown (docs/mujoco-releases.md)")
+    p.add_argument("--json", metavar="PATH", help="write every release's probe as JSON")
+    p.add_argument("--bisect", action="store_true",
+                   help="find the first release whose free-body RK4 is fourth order, probing as few as a binary "
+                        "search needs")
+    p.set_defaults(func=_cmd_releases)
 
     p = sub.add_parser("bench", help="steps per second of every method, ours and the engines'")
     p.add_argument("--json", metavar="PATH", help="write the rows as JSON (schema xcheck.bench/1)")

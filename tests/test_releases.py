@@ -1,0 +1,95 @@
+"""Every MuJoCo release (issue 29): the bisection's search, and the release table and bisection run for real on two
+releases. Truth: MuJoCo's changelog and our measurement, recorded in docs/mujoco-releases.md: free-body RK4 is second
+order before 4.0.0 and fourth order from it (``RK4_FOURTH_ORDER_FROM``); the installed release is at least that."""
+
+import math
+import subprocess
+import sys
+
+import pytest
+
+from xcheck.history.matrix import installed_mujoco
+from xcheck.league.releases import RELEASES, RK4_FOURTH_ORDER_FROM, bisect, release_key, release_note
+
+OLD = "3.2.7"
+
+
+@pytest.mark.parametrize("first", [None, *RELEASES])
+def test_the_bisection_finds_the_first_good_release_in_few_probes(first):
+    """A made-up history with its first good release at each place (or none): found, in at most ceil(log2 n) + 2
+    probes, and never probing a release twice."""
+    asked = []
+
+    def good(v):
+        asked.append(v)
+        return first is not None and release_key(v) >= release_key(first)
+
+    found, seen = bisect(reversed(RELEASES), good, log=lambda *a: None)
+    assert found == first
+    assert len(asked) == len(set(asked)) == len(seen) <= math.ceil(math.log2(len(RELEASES))) + 2
+
+
+def test_the_finding_is_named_for_older_releases_only():
+    assert release_note(RK4_FOURTH_ORDER_FROM) is None and release_note("4.1.0") is None
+    assert release_note("not installed") is None
+    note = release_note("3.17.0")
+    assert "MuJoCo 3.17.0's RK4 is second order" in note and f"from MuJoCo {RK4_FOURTH_ORDER_FROM}" in note
+
+
+def _xcheck(*args, python=sys.executable, cwd=None):
+    return subprocess.run([python, "-m", "xcheck", *map(str, args)], capture_output=True, text=True, cwd=cwd,
+                          timeout=900)
+
+
+@pytest.fixture(scope="module")
+def two_releases(package_index):
+    installed = installed_mujoco()
+    assert release_key(installed) >= release_key(RK4_FOURTH_ORDER_FROM)
+    return OLD, installed
+
+
+def test_the_bisection_on_two_releases(two_releases, tmp_path):
+    """MuJoCo 3.2.7 probed and found second order, the installed release fourth order: the first good one."""
+    old, new = two_releases
+    p = _xcheck("releases", "--mujoco", f"{old},{new}", "--bisect", "--json", tmp_path / "b.json", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert f"fourth order from: {new} (2 of 2 releases probed: {old} not 4th, {new} 4th)" in p.stdout
+
+
+def test_the_release_table_on_two_releases(two_releases, tmp_path):
+    """The table's rows: the old release's RK4 at order 2 on the free tumbler, the gyroscope and the ball-joint top,
+    failing its order checks; the installed release passing every scenario at order 4."""
+    old, new = two_releases
+    out = tmp_path / "docs" / "mujoco-releases.md"
+    p = _xcheck("releases", "--mujoco", f"{old},{new}", "--out", out, cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    text = out.read_text()
+    assert f"Made by `xcheck releases --mujoco {old},{new} --out mujoco-releases.md`" in text
+    rows = {line.split("|")[1].strip(): [c.strip() for c in line.strip("|").split("|")] for line in text.splitlines()
+            if line.startswith(f"| {old} ") or line.startswith(f"| {new} ")}
+    assert [float(c) for c in rows[old][2:5]] == pytest.approx([2.0, 2.0, 2.0], abs=0.1)
+    assert [float(c) for c in rows[new][2:5]] == pytest.approx([4.0, 4.0, 4.0], abs=0.1)
+    n = rows[new][1].split(" of ")[1]
+    assert rows[new][1] == f"{n} of {n}" and rows[old][1] != rows[new][1]
+    assert f"**Free-body RK4 is fourth order from MuJoCo {new} on**" in text
+    assert f"- **{old}**: order:mujoco-rk4 in " in text and f"- **{new}**: nothing" in text
+
+
+def test_an_old_releases_failed_order_check_names_the_finding(two_releases):
+    """Run in MuJoCo 3.2.7's environment, the study still fails (that is the point), and says why."""
+    from xcheck.history.matrix import ensure_env
+
+    py = ensure_env(OLD, log=lambda *a: None)
+    p = _xcheck("converge", "tumbler-intermediate-axis", "--quick", "--methods", "mujoco-rk4", python=py)
+    assert p.returncode == 1
+    assert (f"FAILED order:mujoco-rk4: median of the local orders" in p.stdout
+            and f"a known finding: MuJoCo {OLD}'s RK4 is second order" in p.stdout
+            and f"fourth order from MuJoCo {RK4_FOURTH_ORDER_FROM} on" in p.stdout), p.stdout
+
+
+def test_xcheck_releases_refuses_bad_arguments(tmp_path):
+    for args, said in ((["--mujoco", "3.2"], "--mujoco: '3.2' is not a release number like 3.2.7"),
+                       (["--bisect", "--out", "x.md"], "--out: a bisection probes only some releases"),
+                       (["--out", "x.txt"], "--out: x.txt must end in .md")):
+        p = _xcheck("releases", *args, cwd=tmp_path)
+        assert p.returncode == 2 and said in p.stderr and "Traceback" not in p.stderr, p.stderr
