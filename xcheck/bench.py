@@ -47,7 +47,7 @@ def _best(fn, repeat):
 def run_bench(*, repeat: int = 3, batch: int = 10_000, quick: bool = False, methods=None,
               progress=None) -> list[dict]:
     """Measure and return the rows (see the module docstring) of ``methods`` (default: every runner)."""
-    from .engines import ENGINES
+    from .engines import ENGINES, asked_for
     from .runners import RUNNERS
     from .scenario import resolve_scenario
     from .study.context import run_context
@@ -55,7 +55,8 @@ def run_bench(*, repeat: int = 3, batch: int = 10_000, quick: bool = False, meth
     duration = 2.0 if quick else 10.0
     nsteps = round(duration / DT)
     batch = min(batch, 1000) if quick else batch
-    runners = [RUNNERS[m] for m in methods] if methods else list(RUNNERS.values())
+    runners = [RUNNERS[m] for m in methods] if methods else [r for r in RUNNERS.values()
+                                                              if not r.opt_in or asked_for(r.engine)]
     contexts = {name: dataclasses.replace(run_context(resolve_scenario(name)), duration=duration)
                 for name in BENCH_SCENARIOS}
     rows = []
@@ -97,8 +98,8 @@ def run_bench(*, repeat: int = 3, batch: int = 10_000, quick: bool = False, meth
         if not any(r.engine == engine.name for r in runners):
             continue
         extras = getattr(importlib.import_module(engine.module), "bench_extras", None)
-        for method, scenario, seconds, steps in (extras(contexts, DT, nsteps, repeat) if extras else ()):
-            add(engine.name, method, scenario, 1, seconds, steps)
+        for method, scenario, seconds, steps, *batch in (extras(contexts, DT, nsteps, repeat) if extras else ()):
+            add(engine.name, method, scenario, batch[0] if batch else 1, seconds, steps)
     return rows
 
 

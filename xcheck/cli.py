@@ -309,6 +309,7 @@ def _cmd_report(args) -> int:
     from .report.build import build_report
 
     t0 = time.perf_counter()
+    _with_engines(args)
     outcome = build_report(args.scenarios, args.out, quick=args.quick, workers=args.workers, run_bench=args.bench,
                            trajectories=args.trajectories, progress=Progress(), written=_WRITTEN.append,
                            started=_STARTED)
@@ -372,6 +373,7 @@ def _cmd_bench(args) -> int:
     from .bench import main as bench_main
     from .report.io import check_output_file
 
+    _with_engines(args)
     if args.repeat < 1:
         raise UsageError(f"--repeat: expected a positive number of runs, got {args.repeat}")
     argv = []
@@ -384,6 +386,24 @@ def _cmd_bench(args) -> int:
         argv += ["--methods", ",".join(_methods_arg(args.methods))]
     argv += ["--repeat", str(args.repeat)]
     return bench_main(argv)
+
+
+def _with_engines(args) -> None:
+    """``--with ENGINE[,ENGINE]``: an opt-in engine's methods join every study of this command (and its workers'),
+    through ``$XCHECK_WITH``; refused, naming what to install, where the engine is not installed."""
+    if not getattr(args, "with_engines", None):
+        return
+    from .engines import ENGINES, WITH_VARIABLE, available
+
+    names = _csv_list(args.with_engines, str, "--with")
+    opt_in = [n for n, e in ENGINES.items() if e.opt_in]
+    for name in names:
+        if name not in opt_in:
+            raise UsageError(f"--with: {name!r} is not an opt-in engine (expected one of {', '.join(opt_in)}); "
+                             "the others run whenever they are installed")
+        if not available(name):
+            raise UsageError(f"--with {name}: {name} is not installed here: pip install 'xcheck[{name}]'")
+    os.environ[WITH_VARIABLE] = ",".join(names)
 
 
 def _cmd_league(args) -> int:
@@ -506,6 +526,54 @@ def _cmd_releases(args) -> int:
         command = "xcheck releases" + (f" --mujoco {args.mujoco}" if args.mujoco else "") + f" --out {out.name}"
         write_text_atomic(out, markdown(probes, failures, version=__version__, command=command, first_good=first))
         print(f"release table: {out}")
+    return EXIT_OK
+
+
+def _cmd_mjx(args) -> int:
+    """MJX in float32 and float64 on the bundled scenarios, and its batched steps per second: docs/mjx.md."""
+    from .engines import available
+    from .report.io import check_output_file, write_json_atomic, write_text_atomic
+
+    if not available("mjx"):
+        raise UsageError("mjx: MJX is not installed here: pip install 'xcheck[mjx]' (the PyPI packages mujoco-mjx "
+                         "and jax)")
+    out = check_output_file(args.out, "--out", suffixes=(".md",)) if args.out else None
+    if args.json:
+        check_output_file(args.json, "--json", suffixes=(".json",))
+    from .league.precision import floors, markdown, run_precision_studies
+    from .scenario import resolve_scenario
+
+    for name in args.scenarios:
+        resolve_scenario(name)  # a bad name or file: said before any work
+    studies = run_precision_studies(args.scenarios or None, workers=args.workers, progress=Progress())
+    rows = floors(studies)
+    bench = []
+    if not args.no_bench:
+        from .bench import run_bench
+
+        bench = [r for r in run_bench(repeat=2, quick=True, methods=["mjx-rk4", "mjx-rk4-x64", "formulation-2",
+                                                                     "lie-rkmk4", "mujoco-rk4"])
+                 if r["batch"] > 1 or "mj_step" in r["method"] or r["method"].startswith("mjx")]
+    width = max(len(r["scenario"]) for r in rows)
+    for r in rows:
+        if r["method"].startswith("mjx"):
+            order = "—" if r["observed"] is None else f"{r['observed']:.2f}"
+            floor = "—" if r["floor"] is None else f"{r['floor']:.2g}"
+            print(f"{r['scenario']:<{width}}  {r['method']:<18} order {order:>5}  finest error {floor:>8} rad")
+    for row in bench:
+        print(f"{row['method']:<45} batch {row['batch']:>6}  {row['steps_per_second']:.3g} body-steps/s")
+    if args.json:
+        write_json_atomic(args.json, {"schema": "xcheck.mjx/1", "rows": rows, "bench": bench})
+    if out is not None:
+        from .versions import package_version, versions
+
+        v = versions()
+        command = "xcheck mjx" + (" " + " ".join(args.scenarios) if args.scenarios else "") + f" --out {out.name}"
+        text = markdown(rows, bench, version=__version__, command=command,
+                        versions={"mujoco": v["mujoco"], "mujoco-mjx": package_version("mujoco-mjx"),
+                                  "jax": package_version("jax")})
+        write_text_atomic(out, text)
+        print(f"MJX table: {out}")
     return EXIT_OK
 
 
@@ -656,6 +724,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--timings", action="store_true", help="print where the time went (phases, on stderr)")
     p.add_argument("--trajectories", action="store_true",
                    help="also write every method's finest run as CSV (trajectories/, ~4 MB a scenario)")
+    p.add_argument("--with", dest="with_engines", metavar="ENGINE",
+                   help="an opt-in engine's methods too: mjx (MJX's RK4, Euler and implicitfast, float32 and x64; "
+                        "pip install 'xcheck[mjx]')")
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
     p.set_defaults(func=_cmd_report)
 
@@ -738,11 +809,23 @@ def build_parser() -> argparse.ArgumentParser:
                         "search needs")
     p.set_defaults(func=_cmd_releases)
 
+    p = sub.add_parser("mjx", help="MJX (MuJoCo's JAX port) in float32 and float64 on the bundled scenarios: what "
+                                   "float32 costs (docs/mjx.md)")
+    p.add_argument("scenarios", nargs="*", help="bundled names or .toml scenario files (default: every bundled one)")
+    p.add_argument("--out", metavar="FILE.md", help="write the table as Markdown (docs/mjx.md)")
+    p.add_argument("--json", metavar="PATH", help="write the rows as JSON")
+    p.add_argument("--no-bench", action="store_true", help="leave out the steps-per-second rows")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
+    p.set_defaults(func=_cmd_mjx)
+
     p = sub.add_parser("bench", help="steps per second of every method, ours and the engines'")
     p.add_argument("--json", metavar="PATH", help="write the rows as JSON (schema xcheck.bench/1)")
     p.add_argument("--quick", action="store_true", help="shorter runs, a smaller batch")
     p.add_argument("--methods", help="comma-separated methods (default: every method)")
     p.add_argument("--repeat", type=int, default=3, help="best of this many runs (default 3)")
+    p.add_argument("--with", dest="with_engines", metavar="ENGINE",
+                   help="an opt-in engine's methods too: mjx (MJX's RK4, Euler and implicitfast, float32 and x64; "
+                        "pip install 'xcheck[mjx]')")
     p.set_defaults(func=_cmd_bench)
     return parser
 

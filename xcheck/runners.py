@@ -71,6 +71,8 @@ class Runner:
     #: ``dt -> note or None``: how the engine's clock takes a step (a note when it rounds it); ValueError, naming
     #: why, for a step it cannot take. None: any step, as given.
     clock: Callable[[float], str | None] | None = None
+    #: its engine is opt-in (:attr:`xcheck.engines.Engine.opt_in`): the method runs only where it is asked for
+    opt_in: bool = False
 
     def run_at(self, ctx: RunContext, dt: float, rtol: float | None = None) -> Trajectory:
         """``run`` at the step ``dt`` and, for an adaptive method, the tolerance ``rtol`` (None: its defaults)."""
@@ -187,6 +189,35 @@ if available("basilisk"):
                     for name, (order, summary) in BASILISK_METHODS.items()})
 
 
+def _mjx(integrator, x64):
+    def run(ctx: RunContext, dt: float) -> Trajectory:
+        from .engines.mjx import simulate
+
+        return simulate(ctx.model_path, integrator=integrator, q0=ctx.q0, omega0=ctx.omega0, dt=dt,
+                        duration=ctx.duration, torque=ctx.applied, x64=x64, inertia_moments=ctx.model_moments,
+                        wheel_speeds=ctx.wheel_speeds)
+    return run
+
+
+def _held_input_order(torque: dict | None, model=None):
+    """MJX holds an applied torque and a motor's command over each step (no control callback): first order."""
+    if torque is None and not (model is not None and _declares_pulses(model)):
+        return None, None
+    return 1, "MJX takes the torque (and the motors' commands) at each step's start and holds it over the step: first order"
+
+
+#: MJX's methods: registered when its package (the extra ``mjx``) is installed; opt-in (``xcheck report --with mjx``)
+MJX_METHODS = {
+    f"mjx-{i}{suffix}": (order, f"MJX's {what} ({precision})", i, suffix == "-x64")
+    for i, order, what in (("rk4", 4, "RK4"), ("euler", 1, "semi-implicit Euler"), ("implicitfast", 1, "implicitfast"))
+    for suffix, precision in (("", "float32, JAX's default"), ("-x64", "float64: jax_enable_x64"))}
+if available("mjx"):
+    RUNNERS.update({name: Runner(name, "mjx", order, summary, _mjx(integrator, x64), line_style="-.",
+                                 order_with=_held_input_order, twin="lie-rkmk4" if integrator == "rk4" else None,
+                                 opt_in=True)
+                    for name, (order, summary, integrator, x64) in MJX_METHODS.items()})
+
+
 def unknown_method(name: str) -> str:
     """The message for a method name that is not a runner: an engine's that is not installed says how to get it."""
     if name in BASILISK_METHODS:
@@ -195,4 +226,7 @@ def unknown_method(name: str) -> str:
                     "leaves out here")
         return (f"{name!r} is Basilisk's, which is not installed here: pip install 'xcheck[basilisk]' (the PyPI "
                 "package bsk)")
+    if name in MJX_METHODS:
+        return (f"{name!r} is MJX's, which is not installed here: pip install 'xcheck[mjx]' (the PyPI packages "
+                "mujoco-mjx and jax)")
     return f"unknown method {name!r}; expected one of {', '.join(RUNNERS)}"

@@ -1,6 +1,7 @@
 """The simulators xcheck cross-checks. An engine is its module here, its entry in :data:`ENGINES` and its
 runners in :mod:`xcheck.runners`: the module provides the simulation (``simulate`` -> ``Trajectory``) and may
-provide ``bench_extras(contexts, dt, nsteps, repeat)`` (rows of its own for ``xcheck bench``); the entry names
+provide ``bench_extras(contexts, dt, nsteps, repeat)`` (rows of its own for ``xcheck bench``: ``(method, scenario,
+seconds, steps[, batch])``); the entry names
 the distribution whose version every report records (:func:`xcheck.versions.versions`), the modules a worker
 imports as it starts, whether a process working beside a pool leaves the engine's runs to the workers, and the
 engine's own magnetometer where it has one."""
@@ -24,27 +25,49 @@ class Engine:
     #: readings ``(model, q (n, 4), B_world (3,))`` of a field fixed in the world (the determination study reads
     #: it there); None: the engine has none wired here
     magnetometer: tuple[str, str] | None = None
+    #: its methods join a study only when asked for (``$XCHECK_WITH``, ``xcheck report --with``, a scenario's or a
+    #: command's ``methods``): MJX compiles each model, integrator and precision (1-3 s each), which would double
+    #: every report where it is merely installed
+    opt_in: bool = False
 
 
 ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco", "mujoco", warm=("xcheck.engines.mujoco",),
                             magnetometer=("magnetometer_readings", "MuJoCo's <magnetometer> sensor (uniform field, "
                                           "opt.magnetic = μ0 H) on MuJoCo's states")),
            "basilisk": Engine("basilisk", "bsk", "xcheck.engines.basilisk", "Basilisk",
-                              warm=("xcheck.engines.basilisk", "Basilisk.simulation.spacecraft"), to_workers=True)}
+                              warm=("xcheck.engines.basilisk", "Basilisk.simulation.spacecraft"), to_workers=True),
+           "mjx": Engine("mjx", "mujoco-mjx", "xcheck.engines.mjx", "jax", opt_in=True)}
 
 
 #: An optional engine is left out, although installed, when ``$XCHECK_WITHOUT`` names it (comma-separated):
 #: ``XCHECK_WITHOUT=basilisk xcheck report`` is the report as on a machine without Basilisk (the speed figures
 #: are measured both ways).
 WITHOUT_VARIABLE = "XCHECK_WITHOUT"
+#: An opt-in engine's methods join every study when ``$XCHECK_WITH`` names it (``xcheck report --with mjx``)
+WITH_VARIABLE = "XCHECK_WITH"
 
 
 def installed(engine: str) -> bool:
-    """Whether an engine's package is installed (MuJoCo always is; Basilisk is the optional extra ``basilisk``),
-    found without importing it."""
+    """Whether an engine's package is installed (MuJoCo always is; Basilisk and MJX are the optional extras
+    ``basilisk`` and ``mjx``), found without importing it: its top-level module and its distribution."""
+    import importlib.metadata
     import importlib.util
 
-    return importlib.util.find_spec(ENGINES[engine].top_level) is not None
+    e = ENGINES[engine]
+    if importlib.util.find_spec(e.top_level) is None:
+        return False
+    try:
+        importlib.metadata.distribution(e.package)
+    except importlib.metadata.PackageNotFoundError:
+        return False
+    return True
+
+
+def asked_for(engine: str) -> bool:
+    """Whether ``$XCHECK_WITH`` names an opt-in engine (its methods then join every study)."""
+    import os
+
+    return engine in {e.strip() for e in os.environ.get(WITH_VARIABLE, "").split(",")}
 
 
 def left_out(engine: str) -> bool:

@@ -7,9 +7,9 @@ release runs here. :func:`markdown` makes ``docs/mujoco-releases.md`` of the pro
 version. :func:`bisect` finds the first release whose free-body RK4 is fourth order probing as few releases as a
 binary search needs (``xcheck releases --bisect``).
 
-The finding it made is recorded here (:data:`RK4_FOURTH_ORDER_FROM`): a study on an older MuJoCo still fails its
-RK4's order check (that is the point), and :func:`release_note` names the finding and the first good release in
-the check's message.
+The finding it made is recorded in :mod:`.findings` (``RK4_FOURTH_ORDER_FROM``): a study on an older MuJoCo still
+fails its RK4's order check (that is the point), and ``release_note`` names the finding and the first good release
+in the check's message.
 """
 
 from __future__ import annotations
@@ -21,12 +21,14 @@ import tempfile
 from datetime import datetime, timezone
 from pathlib import Path
 
+from .findings import RK4_FOURTH_ORDER_FROM, release_key, release_note
+
+__all__ = ["RELEASES", "RK4_FOURTH_ORDER_FROM", "release_key", "release_note", "probe", "run_probe", "bisect",
+           "markdown"]
+
 #: The newest patch of every minor release from 3.2 to 4.0 (PyPI, 2026-12-02)
 RELEASES = ("3.2.7", "3.3.7", "3.4.0", "3.5.0", "3.6.0", "3.7.0", "3.8.1", "3.9.0", "3.10.0", "3.11.0", "3.12.0",
             "3.13.0", "3.14.0", "3.15.0", "3.16.0", "3.17.0", "4.0.0")
-#: The first release whose RK4 is fourth order on a free body (``xcheck releases``, docs/mujoco-releases.md):
-#: before it, order 2 on every bundled scenario, free and ball joints alike
-RK4_FOURTH_ORDER_FROM = "4.0.0"
 #: The scenario the bisection probes: a free, asymmetric body tumbling torque free (exact reference)
 PROBE_SCENARIO = "tumbler-intermediate-axis"
 #: What MuJoCo's changelog says of rotating bodies, by release (the issue's reading of it; the table's numbers show
@@ -35,18 +37,6 @@ CHANGELOG = {
     "3.7.0": "free bodies integrated at the midpoint in implicit and implicitfast",
     "3.11.0": "implicitfast: gyroscopic derivatives replace the midpoint; \"tumbling motion is now mildly damped\"",
 }
-
-
-def release_key(version: str) -> tuple:
-    return tuple(int(x) for x in version.split("."))
-
-
-def release_note(version: str | None) -> str | None:
-    """For a failed RK4 order check on MuJoCo ``version``: the finding and the first good release; None from it on."""
-    if not version or version == "not installed" or release_key(version) >= release_key(RK4_FOURTH_ORDER_FROM):
-        return None
-    return (f"a known finding: MuJoCo {version}'s RK4 is second order on rotating bodies (free and ball joints, "
-            f"every bundled scenario); fourth order from MuJoCo {RK4_FOURTH_ORDER_FROM} on (docs/mujoco-releases.md)")
 
 
 # -----------------------------------------------------------------------------------------------------

@@ -75,7 +75,12 @@ class StudyResult:
 
 
 def default_methods(scenario: Scenario) -> list[str]:
-    return list(scenario.methods) if scenario.methods else list(RUNNERS)
+    """The scenario's methods, else every runner but an opt-in engine's that ``$XCHECK_WITH`` does not name."""
+    from ..engines import asked_for
+
+    if scenario.methods:
+        return list(scenario.methods)
+    return [m for m, r in RUNNERS.items() if not r.opt_in or asked_for(r.engine)]
 
 
 def comparison_partner(scenario: Scenario, method: str, methods) -> str | None:

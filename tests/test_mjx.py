@@ -1,0 +1,107 @@
+"""MJX, MuJoCo's JAX port, as an engine (issue 29). Truths: MuJoCo itself (the same model and algorithm in C and
+float64: MJX's semi-implicit Euler in float64 must agree with MuJoCo's to round-off, motors' commands included), the
+exact reference (orders, float32's floor), and the held input's first order against DOP853."""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from xcheck.engines import available
+
+if not available("mjx"):
+    pytest.skip("MJX is not installed (the extra mjx: pip install 'xcheck[mjx]', PyPI mujoco-mjx and jax): its "
+                "tests skip", allow_module_level=True)
+
+from xcheck.reference import exact_torque_free  # noqa: E402
+from xcheck.rotations import attitude_error  # noqa: E402
+from xcheck.scenario import resolve_scenario  # noqa: E402
+from xcheck.study.context import run_context  # noqa: E402
+from xcheck.versions import package_version  # noqa: E402
+
+
+def _run(engine, scenario, integrator, dt, **kw):
+    ctx = run_context(resolve_scenario(scenario))
+    if engine == "mjx":
+        from xcheck.engines.mjx import simulate
+    else:
+        from xcheck.engines.mujoco import simulate
+    return ctx, simulate(ctx.model_path, integrator=integrator, q0=ctx.q0, omega0=ctx.omega0, dt=dt,
+                         duration=ctx.duration, torque=ctx.applied, wheel_speeds=ctx.wheel_speeds, **kw)
+
+
+@pytest.mark.parametrize("scenario", ["tumbler-three-wheels", "heavy-top"])
+def test_mjx_euler_in_float64_is_mujocos_euler(scenario):
+    """The same semi-implicit Euler step in JAX and in C: free body, gyrostat with a motor's pulse (MJX's command held
+    from the step's start, as MuJoCo's one stage takes it), ball joint under gravity."""
+    _, mine = _run("mjx", scenario, "euler", 1 / 256, x64=True)
+    _, theirs = _run("mujoco", scenario, "euler", 1 / 256)
+    assert mine.status == theirs.status == "ok"
+    assert len(mine.t) == len(theirs.t)
+    assert np.max(attitude_error(mine.q, theirs.q)) < 1e-9
+    np.testing.assert_allclose(mine.omega, theirs.omega, atol=1e-8)
+    assert mine.extras["precision"] == "float64"
+
+
+def test_mjx_rk4_is_second_order_and_float32_has_a_floor():
+    """Against the exact solution on the tumbler: RK4 in float64 falls 4x a halving (order 2, as MuJoCo's before
+    4.0.0: MJX 3.17 keeps that RK4); in float32 it stalls near 1e-5 rad, out of the step-size table's 1e-6."""
+    ctx = run_context(resolve_scenario("tumbler-intermediate-axis"))
+    errors = {}
+    for x64 in (True, False):
+        for dt in (1 / 256, 1 / 512, 1 / 1024):
+            _, tr = _run("mjx", "tumbler-intermediate-axis", "rk4", dt, x64=x64)
+            q, _ = exact_torque_free(ctx.inertia, ctx.q0, ctx.omega0, tr.t[-1:])
+            errors[x64, dt] = float(attitude_error(tr.q[-1], q[-1]))
+    order = np.log2(errors[True, 1 / 512] / errors[True, 1 / 1024])
+    expected = 4.0 if tuple(map(int, package_version("mujoco-mjx").split(".")[:2])) >= (4, 0) else 2.0
+    assert order == pytest.approx(expected, abs=0.1), errors
+    assert errors[True, 1 / 1024] < 1e-6 < errors[False, 1 / 1024] < 1e-4, errors
+
+
+def test_a_held_torque_leaves_mjx_first_order():
+    """RAX-1 in its orbit field: the torque taken at each step's start and held (xfrc_applied through a host callback)
+    leaves MJX's RK4 first order against DOP853, as the study declares."""
+    import dataclasses
+
+    from xcheck.study import run_study
+
+    sc = resolve_scenario("rax1-orbit-field")
+    st = run_study(dataclasses.replace(sc, methods=["mjx-rk4-x64", "lie-rkmk4"]), quick=True, workers=1)
+    m = st.data["methods"]["mjx-rk4-x64"]
+    assert m["expected_order"] == 1
+    assert m["observed_order"] == pytest.approx(1.0, abs=0.1)
+    assert st.passed, [c for c in st.data["checks"] if not c["passed"]]
+
+
+def test_mjx_is_opt_in():
+    """Installed, MJX's methods join a study only where asked for ($XCHECK_WITH, --with, a method list)."""
+    code = ("from xcheck.study import default_methods; from xcheck.scenario import resolve_scenario; "
+            "print(','.join(m for m in default_methods(resolve_scenario('tumbler-intermediate-axis')) if 'mjx' in m))")
+    env = {k: v for k, v in os.environ.items() if k != "XCHECK_WITH"}
+    without = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    with_ = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env={**env, "XCHECK_WITH": "mjx"})
+    assert without.stdout.strip() == ""
+    assert with_.stdout.strip().split(",") == ["mjx-rk4", "mjx-rk4-x64", "mjx-euler", "mjx-euler-x64",
+                                               "mjx-implicitfast", "mjx-implicitfast-x64"]
+
+
+@pytest.mark.parametrize("value, said", [("basilisk", "--with: 'basilisk' is not an opt-in engine"),
+                                         ("warp", "--with: 'warp' is not an opt-in engine")])
+def test_with_refuses_what_is_not_an_opt_in_engine(tmp_path, value, said):
+    p = subprocess.run([sys.executable, "-m", "xcheck", "report", "--quick", "--with", value, "--out", tmp_path],
+                       capture_output=True, text=True)
+    assert p.returncode == 2 and said in p.stderr and "Traceback" not in p.stderr, p.stderr
+
+
+def test_xcheck_mjx_writes_its_table(tmp_path):
+    out = tmp_path / "mjx.md"
+    p = subprocess.run([sys.executable, "-m", "xcheck", "mjx", "gyroscope-nonsingular", "--no-bench", "--out", out,
+                        "--workers", "1"], capture_output=True, text=True, cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    text = out.read_text()
+    assert "Made by `xcheck mjx gyroscope-nonsingular --out mjx.md`" in text
+    assert "| gyroscope-nonsingular | mjx-rk4-x64 | 4 | 2.0" in text
+    assert "Failed to import warp" not in p.stdout
