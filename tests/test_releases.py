@@ -30,6 +30,15 @@ def test_the_bisection_finds_the_first_good_release_in_few_probes(first):
     assert len(asked) == len(set(asked)) == len(seen) <= math.ceil(math.log2(len(RELEASES))) + 2
 
 
+def test_the_releases_are_every_minor_release_from_3_2_to_4_0():
+    """The newest patch of each minor release (PyPI), and the keyword of xcheck nightly --mujoco."""
+    from xcheck.history.matrix import parse_versions
+
+    minors = [tuple(map(int, v.split(".")[:2])) for v in RELEASES]
+    assert minors == [(3, k) for k in range(2, 18)] + [(4, 0)]
+    assert parse_versions("releases") == list(RELEASES)
+
+
 def test_the_finding_is_named_for_older_releases_only():
     assert release_note(RK4_FOURTH_ORDER_FROM) is None and release_note("4.1.0") is None
     assert release_note("not installed") is None

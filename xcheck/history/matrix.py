@@ -37,7 +37,12 @@ class MatrixError(ValueError):
 
 
 def parse_versions(text: str) -> list[str]:
-    """``"3.2.7, 4.0.0"`` -> ``["3.2.7", "4.0.0"]``; ValueError naming ``--mujoco`` for anything else."""
+    """``"3.2.7, 4.0.0"`` -> ``["3.2.7", "4.0.0"]``; ``"releases"``: the newest patch of every minor release from 3.2
+    to 4.0 (:data:`xcheck.league.findings.RELEASES`); ValueError naming ``--mujoco`` for anything else."""
+    if text.strip() == "releases":
+        from ..league.findings import RELEASES
+
+        return list(RELEASES)
     items = [v.strip() for v in text.split(",")]
     if not any(items):
         raise ValueError(f"--mujoco: expected a comma-separated list of MuJoCo releases, got {text!r}")

@@ -4,6 +4,9 @@ reads it without loading the release machinery."""
 
 from __future__ import annotations
 
+#: The newest patch of every minor release from 3.2 to 4.0 (PyPI, 2026-12-02)
+RELEASES = ("3.2.7", "3.3.7", "3.4.0", "3.5.0", "3.6.0", "3.7.0", "3.8.1", "3.9.0", "3.10.0", "3.11.0", "3.12.0",
+            "3.13.0", "3.14.0", "3.15.0", "3.16.0", "3.17.0", "4.0.0")
 #: The first release whose RK4 is fourth order on a free body (``xcheck releases``, docs/mujoco-releases.md):
 #: before it, order 2 on every bundled scenario, free and ball joints alike
 RK4_FOURTH_ORDER_FROM = "4.0.0"

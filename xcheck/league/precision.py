@@ -83,10 +83,12 @@ def markdown(rows, bench, *, version: str, versions: dict, command: str) -> str:
                      f"{_fmt(r['floor'])} | " + " | ".join(_fmt(r["within"][t], ".3g") for t in TOLERANCES) + " |")
     if bench:
         lines += ["", "## Steps per second on this CPU", "",
-                  "`xcheck bench --with mjx` rows: MJX's batched RK4 (`jax.vmap` over 1000 gyroscopes) beside our batch "
-                  "path (10 000 gyroscopes) and MuJoCo's own `mj_step` loop (one body), torque free.", "",
-                  "| method | batch | body-steps per second |", "|---|---:|---:|"]
+                  "`xcheck bench --quick --with mjx` rows, best of 2: MJX's RK4 on one body (torque free, and with "
+                  "RAX-1's orbit field held through the host callback) and batched (`jax.vmap` over 1000 "
+                  "gyroscopes), beside our batch path (1000 gyroscopes), a sweep's cells and MuJoCo's own `mj_step` "
+                  "loop (one body).", "",
+                  "| method | scenario | batch | body-steps per second |", "|---|---|---:|---:|"]
         for row in bench:
-            lines.append(f"| {row['method']} | {row['batch']} | {row['steps_per_second']:.3g} |")
+            lines.append(f"| {row['method']} | {row['scenario']} | {row['batch']} | {row['steps_per_second']:.3g} |")
     lines.append("")
     return "\n".join(lines)

@@ -21,14 +21,11 @@ import tempfile
 from datetime import datetime, timezone
 from pathlib import Path
 
-from .findings import RK4_FOURTH_ORDER_FROM, release_key, release_note
+from .findings import RELEASES, RK4_FOURTH_ORDER_FROM, release_key, release_note
 
 __all__ = ["RELEASES", "RK4_FOURTH_ORDER_FROM", "release_key", "release_note", "probe", "run_probe", "bisect",
            "markdown"]
 
-#: The newest patch of every minor release from 3.2 to 4.0 (PyPI, 2026-12-02)
-RELEASES = ("3.2.7", "3.3.7", "3.4.0", "3.5.0", "3.6.0", "3.7.0", "3.8.1", "3.9.0", "3.10.0", "3.11.0", "3.12.0",
-            "3.13.0", "3.14.0", "3.15.0", "3.16.0", "3.17.0", "4.0.0")
 #: The scenario the bisection probes: a free, asymmetric body tumbling torque free (exact reference)
 PROBE_SCENARIO = "tumbler-intermediate-axis"
 #: What MuJoCo's changelog says of rotating bodies, by release (the issue's reading of it; the table's numbers show

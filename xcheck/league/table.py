@@ -144,10 +144,11 @@ def markdown(rows, steps, *, version: str, versions: dict, command: str) -> str:
     if text:
         lines += ["## In words", "", text, "",
                   "MuJoCo's Euler reproduces ODE's figures to three digits and its implicit and implicitfast reproduce "
-                  "Bullet's: the same semi-implicit Euler step with the gyroscopic term explicit, and with it "
-                  "linearised, as those engines take. Simbody's error is half of ODE's at the same step (its "
-                  "integrator's own error control). DART's momentum error of about 2 (200 %) at every step is the "
-                  "published figure, not a typo of ours.", ""]
+                  "Bullet's, all three with semi-implicit Euler's centre of mass error g Δt T/2 = 0.049 m at 1e-3 s: "
+                  "as if they took the same steps (MuJoCo's implicit ones linearise the gyroscopic term, its Euler "
+                  "keeps it explicit). Simbody's published figures at each step are ODE's at half that step, to six "
+                  "digits. DART's momentum error of about 2 (200 %) at every step is the published figure, not a "
+                  "typo of ours.", ""]
     lines += ["## Every step", "", "| case | engine / integrator | Δt [s] | ‖ΔH‖/‖H₀‖ | ‖ΔE‖/E₀ | position error [m] |",
               "|---|---|---:|---:|---:|---:|"]
     for case in B.CASES:
@@ -226,4 +227,4 @@ def section(rows, steps):
                              f"{FOURTH_ORDER_BOUND:g} of the invariants"))
     return Section(blocks=blocks, figures=figures, results={"league": {"steps": list(steps), "rows": rows,
                                                                        "passed": ok}},
-                   passed=ok, summary=text or None)
+                   passed=ok)  # no first-screen sentence: the nightly's History has that place
