@@ -131,6 +131,7 @@ def test_xcheck_league_writes_the_table_and_its_figure(tmp_path):
 @pytest.mark.parametrize("args, said", [
     (["--steps", "0.1"], "--steps: 0.1 s is coarser than the boxes can be stepped"),
     (["--steps", "-1"], "--steps: '-1' is not a positive finite step"),
+    (["--steps", "1e-9"], "--steps: 1e-09 s is finer than 1e-05 s"),
     (["--steps", "0.001", "--quick"], "--steps and --quick: give one"),
     (["--out", "league.txt"], "--out: league.txt must end in .md"),
 ])

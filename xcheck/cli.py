@@ -419,6 +419,9 @@ def _cmd_league(args) -> int:
     for dt in steps:
         if dt > 0.01:
             raise UsageError(f"--steps: {dt:g} s is coarser than the boxes can be stepped (at most 0.01 s)")
+        if dt < 1e-5:
+            raise UsageError(f"--steps: {dt:g} s is finer than 1e-05 s (a million steps of the benchmark's 10 s, "
+                             "each kept in memory)")
     out = check_output_file(args.out, "--out", suffixes=(".md",)) if args.out else None
     if args.json:
         check_output_file(args.json, "--json", suffixes=(".json",))
