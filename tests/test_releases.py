@@ -71,10 +71,11 @@ def test_the_release_table_on_two_releases(two_releases, tmp_path):
     failing its order checks; the installed release passing every scenario at order 4."""
     old, new = two_releases
     out = tmp_path / "docs" / "mujoco-releases.md"
-    p = _xcheck("releases", "--mujoco", f"{old},{new}", "--out", out, cwd=tmp_path)
+    three = ("tumbler-intermediate-axis", "gyroscope-nonsingular", "heavy-top")
+    p = _xcheck("releases", *three, "--mujoco", f"{old},{new}", "--out", out, cwd=tmp_path)
     assert p.returncode == 0, p.stderr
     text = out.read_text()
-    assert f"Made by `xcheck releases --mujoco {old},{new} --out mujoco-releases.md`" in text
+    assert f"Made by `xcheck releases {' '.join(three)} --mujoco {old},{new} --out mujoco-releases.md`" in text
     rows = {line.split("|")[1].strip(): [c.strip() for c in line.strip("|").split("|")] for line in text.splitlines()
             if line.startswith(f"| {old} ") or line.startswith(f"| {new} ")}
     assert [float(c) for c in rows[old][2:5]] == pytest.approx([2.0, 2.0, 2.0], abs=0.1)
@@ -82,7 +83,7 @@ def test_the_release_table_on_two_releases(two_releases, tmp_path):
     n = rows[new][1].split(" of ")[1]
     assert rows[new][1] == f"{n} of {n}" and rows[old][1] != rows[new][1]
     assert f"**Free-body RK4 is fourth order from MuJoCo {new} on**" in text
-    assert f"- **{old}**: order:mujoco-rk4 in " in text and f"- **{new}**: nothing" in text
+    assert f"- **{old}**: order:mujoco-rk4 in 3" in text and f"- **{new}**: nothing" in text
 
 
 def test_an_old_releases_failed_order_check_names_the_finding(two_releases):
@@ -100,6 +101,7 @@ def test_an_old_releases_failed_order_check_names_the_finding(two_releases):
 def test_xcheck_releases_refuses_bad_arguments(tmp_path):
     for args, said in ((["--mujoco", "3.2"], "--mujoco: '3.2' is not a release number like 3.2.7"),
                        (["--bisect", "--out", "x.md"], "--out: a bisection probes only some releases"),
-                       (["--out", "x.txt"], "--out: x.txt must end in .md")):
+                       (["--out", "x.txt"], "--out: x.txt must end in .md"),
+                       (["no-such-scenario"], "no-such-scenario")):
         p = _xcheck("releases", *args, cwd=tmp_path)
         assert p.returncode == 2 and said in p.stderr and "Traceback" not in p.stderr, p.stderr

@@ -502,12 +502,16 @@ def _cmd_releases(args) -> int:
             write_json_atomic(args.json, {"schema": "xcheck.releases-bisect/1", "first_fourth_order": first,
                                           "probed": seen})
         return EXIT_OK
+    from .scenario import resolve_scenario
+
+    for name in args.scenarios:
+        resolve_scenario(name)  # a bad name or file: said before any release is made
     probes, failures = {}, {}
     progress = Progress()
     for k, v in enumerate(versions):
         progress(k, len(versions), f"MuJoCo {v}")
         try:
-            probes[v] = run_probe(v, log=lambda *a: None)
+            probes[v] = run_probe(v, scenarios=args.scenarios or None, log=lambda *a: None)
         except ReleaseError as exc:
             failures[v] = str(exc).split(": ", 1)[-1]
             print(f"MuJoCo {v}: not run ({failures[v]})")
@@ -526,7 +530,8 @@ def _cmd_releases(args) -> int:
         write_json_atomic(args.json, {"schema": "xcheck.releases/1", "probes": probes, "failures": failures,
                                       "first_fourth_order": first})
     if out is not None:
-        command = "xcheck releases" + (f" --mujoco {args.mujoco}" if args.mujoco else "") + f" --out {out.name}"
+        command = ("xcheck releases" + (" " + " ".join(args.scenarios) if args.scenarios else "")
+                   + (f" --mujoco {args.mujoco}" if args.mujoco else "") + f" --out {out.name}")
         write_text_atomic(out, markdown(probes, failures, version=__version__, command=command, first_good=first))
         print(f"release table: {out}")
     return EXIT_OK
@@ -548,7 +553,16 @@ def _cmd_mjx(args) -> int:
 
     for name in args.scenarios:
         resolve_scenario(name)  # a bad name or file: said before any work
-    studies = run_precision_studies(args.scenarios or None, workers=args.workers, progress=Progress())
+    methods = None
+    if args.methods:
+        from .league.precision import mjx_methods
+
+        methods = _csv_list(args.methods, str, "--methods")
+        for m in methods:
+            if m not in mjx_methods():
+                raise UsageError(f"--methods: {m!r} is not MJX's (expected some of {', '.join(mjx_methods())})")
+    studies = run_precision_studies(args.scenarios or None, methods=methods, workers=args.workers,
+                                    progress=Progress())
     rows = floors(studies)
     bench = []
     if not args.no_bench:
@@ -571,7 +585,8 @@ def _cmd_mjx(args) -> int:
         from .versions import package_version, versions
 
         v = versions()
-        command = "xcheck mjx" + (" " + " ".join(args.scenarios) if args.scenarios else "") + f" --out {out.name}"
+        command = ("xcheck mjx" + (" " + " ".join(args.scenarios) if args.scenarios else "")
+                   + (f" --methods {args.methods}" if args.methods else "") + f" --out {out.name}")
         text = markdown(rows, bench, version=__version__, command=command,
                         versions={"mujoco": v["mujoco"], "mujoco-mjx": package_version("mujoco-mjx"),
                                   "jax": package_version("jax")})
@@ -803,6 +818,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("releases", help="every MuJoCo release from 3.2 to 4.0 on the bundled scenarios and the boxes "
                                         "(docs/mujoco-releases.md)")
+    p.add_argument("scenarios", nargs="*", help="bundled scenario names (default: every bundled one)")
     p.add_argument("--mujoco", metavar="VERSIONS", help="comma-separated releases (default: the newest patch of every "
                                                         "minor release from 3.2.7 to 4.0.0)")
     p.add_argument("--out", metavar="FILE.md", help="write the release table as Markdown (docs/mujoco-releases.md)")
@@ -817,6 +833,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scenarios", nargs="*", help="bundled names or .toml scenario files (default: every bundled one)")
     p.add_argument("--out", metavar="FILE.md", help="write the table as Markdown (docs/mjx.md)")
     p.add_argument("--json", metavar="PATH", help="write the rows as JSON")
+    p.add_argument("--methods", help="comma-separated MJX methods (default: all six)")
     p.add_argument("--no-bench", action="store_true", help="leave out the steps-per-second rows")
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
     p.set_defaults(func=_cmd_mjx)

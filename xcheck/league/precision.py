@@ -18,14 +18,15 @@ def mjx_methods() -> list[str]:
     return [m for m, r in RUNNERS.items() if r.engine == "mjx"]
 
 
-def run_precision_studies(scenarios=None, *, quick: bool = True, workers: int | None = None, progress=None):
-    """The studies: every bundled scenario (or ``scenarios``) with MJX's methods and :data:`BESIDE`."""
+def run_precision_studies(scenarios=None, *, methods=None, quick: bool = True, workers: int | None = None,
+                          progress=None):
+    """The studies: every bundled scenario (or ``scenarios``) with MJX's methods (or ``methods``) and :data:`BESIDE`."""
     import dataclasses
 
     from ..scenario import bundled_scenarios, resolve_scenario
     from ..study import run_studies
 
-    chosen = [dataclasses.replace(sc, methods=[*mjx_methods(), *BESIDE])
+    chosen = [dataclasses.replace(sc, methods=[*(methods or mjx_methods()), *BESIDE])
               for sc in (resolve_scenario(n) for n in (scenarios or bundled_scenarios()))]
     return run_studies(chosen, quick=quick, workers=workers, progress=progress)
 
@@ -51,7 +52,7 @@ def _fmt(x, spec=".2g") -> str:
 def markdown(rows, bench, *, version: str, versions: dict, command: str) -> str:
     """``docs/mjx.md``: the floors per scenario, the summary per method, the benchmark rows."""
     now = datetime.now(timezone.utc).strftime("%Y-%m-%d")
-    methods = [*mjx_methods(), *BESIDE]
+    methods = list(dict.fromkeys(r["method"] for r in rows))
     lines = ["# MJX: what float32 costs", "",
              f"Made by `{command}` on {now} with xcheck {version} ({', '.join(f'{k} {v}' for k, v in versions.items())});"
              " do not edit by hand. MJX (MuJoCo's JAX port, PyPI `mujoco-mjx`) on JAX's CPU backend, in float32 (JAX's "
