@@ -2,10 +2,6 @@
 float64: MJX's semi-implicit Euler in float64 must agree with MuJoCo's to round-off, motors' commands included), the
 exact reference (orders, float32's floor), and the held input's first order against DOP853."""
 
-import os
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 
@@ -81,33 +77,41 @@ def test_a_held_torque_leaves_mjx_first_order():
     assert np.log2(errors[0] / errors[1]) == pytest.approx(1.0, abs=0.1), errors
 
 
-def test_mjx_is_opt_in():
+def test_mjx_is_opt_in(monkeypatch):
     """Installed, MJX's methods join a study only where asked for ($XCHECK_WITH, --with, a method list)."""
-    code = ("from xcheck.study import default_methods; from xcheck.scenario import resolve_scenario; "
-            "print(','.join(m for m in default_methods(resolve_scenario('tumbler-intermediate-axis')) if 'mjx' in m))")
-    env = {k: v for k, v in os.environ.items() if k != "XCHECK_WITH"}
-    without = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
-    with_ = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env={**env, "XCHECK_WITH": "mjx"})
-    assert without.stdout.strip() == ""
-    assert with_.stdout.strip().split(",") == ["mjx-rk4", "mjx-rk4-x64", "mjx-euler", "mjx-euler-x64",
-                                               "mjx-implicitfast", "mjx-implicitfast-x64"]
+    from xcheck.study import default_methods
+
+    sc = resolve_scenario("tumbler-intermediate-axis")
+    monkeypatch.delenv("XCHECK_WITH", raising=False)
+    assert [m for m in default_methods(sc) if "mjx" in m] == []
+    monkeypatch.setenv("XCHECK_WITH", "mjx")
+    assert [m for m in default_methods(sc) if "mjx" in m] == ["mjx-rk4", "mjx-rk4-x64", "mjx-euler", "mjx-euler-x64",
+                                                               "mjx-implicitfast", "mjx-implicitfast-x64"]
 
 
 @pytest.mark.parametrize("args, said", [(["report", "--quick", "--with", "basilisk"], "--with: 'basilisk' is not an opt-in"),
                                         (["bench", "--with", "warp"], "--with: 'warp' is not an opt-in engine"),
                                         (["mjx", "--methods", "mujoco-rk4"], "--methods: 'mujoco-rk4' is not MJX's")])
-def test_bad_mjx_arguments_are_named(tmp_path, args, said):
-    p = subprocess.run([sys.executable, "-m", "xcheck", *args], capture_output=True, text=True, cwd=tmp_path)
-    assert p.returncode == 2 and said in p.stderr and "Traceback" not in p.stderr, p.stderr
+def test_bad_mjx_arguments_are_named(tmp_path, monkeypatch, capsys, args, said):
+    from xcheck.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    code = main(args)
+    err = capsys.readouterr().err
+    assert code == 2 and said in err and "Traceback" not in err, err
 
 
-def test_xcheck_mjx_writes_its_table(tmp_path):
+def test_xcheck_mjx_writes_its_table(tmp_path, monkeypatch, capsys):
+    from xcheck.cli import main
+
+    monkeypatch.chdir(tmp_path)
     out = tmp_path / "mjx.md"
-    p = subprocess.run([sys.executable, "-m", "xcheck", "mjx", "tumbler-intermediate-axis", "--methods", "mjx-rk4-x64",
-                        "--no-bench", "--out", out, "--workers", "1"], capture_output=True, text=True, cwd=tmp_path)
-    assert p.returncode == 0, p.stderr
+    code = main(["mjx", "tumbler-intermediate-axis", "--methods", "mjx-rk4-x64", "--no-bench", "--out", str(out),
+                 "--workers", "1"])
+    said = capsys.readouterr()
+    assert code == 0, said.err
     text = out.read_text()
     assert "Made by `xcheck mjx tumbler-intermediate-axis --methods mjx-rk4-x64 --out mjx.md`" in text
     assert "| tumbler-intermediate-axis | mjx-rk4-x64 | 4 | 2.00 |" in text
     assert "| tumbler-intermediate-axis | mujoco-rk4 | 4 | 4.0" in text
-    assert "Failed to import warp" not in p.stdout
+    assert "Failed to import warp" not in said.out

@@ -98,10 +98,14 @@ def test_an_old_releases_failed_order_check_names_the_finding(two_releases):
             and f"fourth order from MuJoCo {RK4_FOURTH_ORDER_FROM} on" in p.stdout), p.stdout
 
 
-def test_xcheck_releases_refuses_bad_arguments(tmp_path):
+def test_xcheck_releases_refuses_bad_arguments(tmp_path, monkeypatch, capsys):
+    from xcheck.cli import main
+
+    monkeypatch.chdir(tmp_path)
     for args, said in ((["--mujoco", "3.2"], "--mujoco: '3.2' is not a release number like 3.2.7"),
                        (["--bisect", "--out", "x.md"], "--out: a bisection probes only some releases"),
                        (["--out", "x.txt"], "--out: x.txt must end in .md"),
                        (["no-such-scenario"], "no-such-scenario")):
-        p = _xcheck("releases", *args, cwd=tmp_path)
-        assert p.returncode == 2 and said in p.stderr and "Traceback" not in p.stderr, p.stderr
+        code = main(["releases", *args])
+        err = capsys.readouterr().err
+        assert code == 2 and said in err and "Traceback" not in err, err

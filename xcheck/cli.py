@@ -97,9 +97,9 @@ def _raise_if_signalled() -> None:
 # progress: a bar on a terminal, nothing otherwise
 # ------------------------------------------------------------------------------------------------
 class Progress:
-    def __init__(self, enabled: bool | None = None, stream=sys.stderr):
-        self.stream = stream
-        self.enabled = stream.isatty() if enabled is None else enabled
+    def __init__(self, enabled: bool | None = None, stream=None):
+        self.stream = sys.stderr if stream is None else stream  # the stream of now, not of import time (pytest's capsys)
+        self.enabled = self.stream.isatty() if enabled is None else enabled
         self.start = time.perf_counter()
 
     def __call__(self, done: int, total: int, label: str = ""):
