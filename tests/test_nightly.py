@@ -11,6 +11,7 @@ import signal
 import sqlite3
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -414,3 +415,24 @@ def test_bench_rows_are_recorded(tmp_path):
     assert len(stored) >= 10 and any(" x" in m for _, m in stored)  # single and batch rows
     for key, value in stored.items():
         assert reported[key] == value
+
+
+def test_a_second_maker_of_an_environment_waits_for_the_first(tmp_path):
+    """Two processes wanting the same release's environment (two nightlies, two test files): the second waits on the
+    first's lock and then finds it made, instead of installing MuJoCo a second time."""
+    from xcheck.history import matrix
+
+    env = tmp_path / "mujoco-envs" / "py-mujoco-9.9.9"
+    env.parent.mkdir(parents=True)
+    waiter = ("import sys, time; from pathlib import Path; from xcheck.history import matrix; env = Path(sys.argv[1]); "
+              "t0 = time.monotonic()\nwith matrix._making(env):\n    print(f'{time.monotonic() - t0:.2f}', "
+              "(env / '.ready').is_file())")
+    with matrix._making(env):
+        proc = subprocess.Popen([sys.executable, "-c", waiter, str(env)], stdout=subprocess.PIPE, text=True)
+        time.sleep(1.0)
+        assert proc.poll() is None  # still waiting for the lock
+        env.mkdir()
+        (env / ".ready").write_text("9.9.9\n")
+    out, _ = proc.communicate(timeout=60)
+    waited, ready = out.split()
+    assert float(waited) >= 0.9 and ready == "True"

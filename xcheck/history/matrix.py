@@ -21,6 +21,7 @@ import shutil
 import subprocess
 import sys
 import sysconfig
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -73,12 +74,37 @@ def _python(env: Path) -> Path:
 
 def ensure_env(version: str, log=print) -> Path:
     """The Python of the cached environment for MuJoCo ``version``, made when missing (in a temporary folder,
-    renamed into place when complete: two nightlies making the same environment do not meet half-made ones).
-    :class:`MatrixError` with pip's reason when it cannot be made."""
+    renamed into place when complete: two nightlies making the same environment do not meet half-made ones; and under
+    a lock, so that the second waits for the first's instead of making its own). :class:`MatrixError` with pip's
+    reason when it cannot be made."""
     env = env_dir(version)
     if (env / ".ready").is_file():
         return _python(env)
     env.parent.mkdir(parents=True, exist_ok=True)
+    with _making(env):  # another process making the same environment: wait for it instead of making a second
+        if (env / ".ready").is_file():
+            return _python(env)
+        return _make_env(env, version, log)
+
+
+@contextmanager
+def _making(env: Path):
+    """An exclusive lock on the making of ``env`` (``fcntl.flock`` on a file beside it; none where there is no fcntl:
+    the temporary folder and the rename below still keep two makers apart)."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    with open(env.parent / f".{env.name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+def _make_env(env: Path, version: str, log) -> Path:
     tmp = env.parent / f".{env.name}.{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     log(f"MuJoCo {version}: making its environment in {env} (once)")
