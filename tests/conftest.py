@@ -43,3 +43,21 @@ def package_index():
     if proc.returncode != 0:
         pytest.skip(f"the package index is not reachable (pip download mujoco=={OLD_MUJOCO} failed): the version "
                     "matrix needs it to install MuJoCo releases")
+
+
+def pytest_configure(config):
+    """On an empty compile cache (CI, a newcomer's first run), compile the integrators' kernels once, in two
+    processes, before the workers start: otherwise every worker's first tests compile the same kernels at the same
+    time (25 s of CPU each, the same work twice)."""
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
+        return  # a worker, or a run without xdist: each compiles what it needs
+    from xcheck.integrators import METHODS, compile_cache_is_cold
+
+    if not compile_cache_is_cold():
+        return
+    names = [m for m, info in METHODS.items() if info.kernel is not None]
+    halves = [names[0::2], names[1::2]]
+    procs = [subprocess.Popen([sys.executable, "-c", f"from xcheck.integrators import precompile; precompile({h!r})"])
+             for h in halves]
+    for p in procs:
+        p.wait()
