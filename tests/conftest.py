@@ -46,9 +46,9 @@ def package_index():
 
 
 def pytest_configure(config):
-    """On an empty compile cache (CI, a newcomer's first run), compile the integrators' kernels once, in two
-    processes, before the workers start: otherwise every worker's first tests compile the same kernels at the same
-    time (25 s of CPU each, the same work twice)."""
+    """On an empty compile cache (the suite run first on a machine, before any report), compile the integrators'
+    kernels once, in two processes, before the workers start: otherwise every worker's first tests compile the same
+    kernels at the same time (25 s of CPU each, the same work twice; 170 -> 153 s wall here)."""
     if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
         return  # a worker, or a run without xdist: each compiles what it needs
     from xcheck.integrators import METHODS, compile_cache_is_cold

@@ -41,22 +41,6 @@ def test_mjx_euler_in_float64_is_mujocos_euler(scenario):
     assert mine.extras["precision"] == "float64"
 
 
-def test_mjx_rk4_is_second_order_and_float32_has_a_floor():
-    """Against the exact solution on the tumbler: RK4 in float64 falls 4x a halving (order 2, as MuJoCo's before
-    4.0.0: MJX 3.17 keeps that RK4); in float32 it stalls near 1e-5 rad, out of the step-size table's 1e-6."""
-    ctx = run_context(resolve_scenario("tumbler-intermediate-axis"))
-    errors = {}
-    for x64 in (False, True):  # float64 last: the tests after this one run in it without a recompilation
-        for dt in (1 / 512, 1 / 1024):
-            _, tr = _run("mjx", "tumbler-intermediate-axis", "rk4", dt, x64=x64)
-            q, _ = exact_torque_free(ctx.inertia, ctx.q0, ctx.omega0, tr.t[-1:])
-            errors[x64, dt] = float(attitude_error(tr.q[-1], q[-1]))
-    order = np.log2(errors[True, 1 / 512] / errors[True, 1 / 1024])
-    expected = 4.0 if tuple(map(int, package_version("mujoco-mjx").split(".")[:2])) >= (4, 0) else 2.0
-    assert order == pytest.approx(expected, abs=0.1), errors
-    assert errors[True, 1 / 1024] < 1e-6 < errors[False, 1 / 1024] < 1e-4, errors
-
-
 def test_a_held_torque_leaves_mjx_first_order():
     """RAX-1 in its orbit field: the torque taken at each step's start and held (xfrc_applied through a host callback)
     leaves MJX's RK4 first order against DOP853 (the error halves with the step), as the study declares."""
@@ -115,3 +99,20 @@ def test_xcheck_mjx_writes_its_table(tmp_path, monkeypatch, capsys):
     assert "| tumbler-intermediate-axis | mjx-rk4-x64 | 4 | 2.00 |" in text
     assert "| tumbler-intermediate-axis | mujoco-rk4 | 4 | 4.0" in text
     assert "Failed to import warp" not in said.out
+
+
+def test_mjx_rk4_is_second_order_and_float32_has_a_floor():
+    """Against the exact solution on the tumbler: RK4 in float64 falls 4x a halving (order 2, as MuJoCo's before
+    4.0.0: MJX 3.17 keeps that RK4); in float32 it stalls near 1e-5 rad, out of the step-size table's 1e-6. (Last in
+    this file: float32 after float64, so that no test after it pays a recompilation for the switch.)"""
+    ctx = run_context(resolve_scenario("tumbler-intermediate-axis"))
+    errors = {}
+    for x64, steps in ((True, (1 / 512, 1 / 1024)), (False, (1 / 1024,))):
+        for dt in steps:
+            _, tr = _run("mjx", "tumbler-intermediate-axis", "rk4", dt, x64=x64)
+            q, _ = exact_torque_free(ctx.inertia, ctx.q0, ctx.omega0, tr.t[-1:])
+            errors[x64, dt] = float(attitude_error(tr.q[-1], q[-1]))
+    order = np.log2(errors[True, 1 / 512] / errors[True, 1 / 1024])
+    expected = 4.0 if tuple(map(int, package_version("mujoco-mjx").split(".")[:2])) >= (4, 0) else 2.0
+    assert order == pytest.approx(expected, abs=0.1), errors
+    assert errors[True, 1 / 1024] < 1e-6 < errors[False, 1 / 1024] < 1e-4, errors

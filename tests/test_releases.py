@@ -51,6 +51,24 @@ def _xcheck(*args, python=sys.executable, cwd=None):
                           timeout=900)
 
 
+def _main(tmp_path, *args):
+    """The command in this process (as ``xcheck``'s entry runs it): its exit code and what it printed."""
+    import contextlib
+    import io
+    import os
+
+    from xcheck.cli import main
+
+    out, cwd = io.StringIO(), os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        with contextlib.redirect_stdout(out):
+            code = main([str(a) for a in args])
+    finally:
+        os.chdir(cwd)
+    return code, out.getvalue()
+
+
 @pytest.fixture(scope="module")
 def two_releases(package_index):
     installed = installed_mujoco()
@@ -61,9 +79,9 @@ def two_releases(package_index):
 def test_the_bisection_on_two_releases(two_releases, tmp_path):
     """MuJoCo 3.2.7 probed and found second order, the installed release fourth order: the first good one."""
     old, new = two_releases
-    p = _xcheck("releases", "--mujoco", f"{old},{new}", "--bisect", "--json", tmp_path / "b.json", cwd=tmp_path)
-    assert p.returncode == 0, p.stderr
-    assert f"fourth order from: {new} (2 of 2 releases probed: {old} not 4th, {new} 4th)" in p.stdout
+    code, out = _main(tmp_path, "releases", "--mujoco", f"{old},{new}", "--bisect", "--json", tmp_path / "b.json")
+    assert code == 0
+    assert f"fourth order from: {new} (2 of 2 releases probed: {old} not 4th, {new} 4th)" in out
 
 
 def test_the_release_table_on_two_releases(two_releases, tmp_path):
@@ -72,8 +90,8 @@ def test_the_release_table_on_two_releases(two_releases, tmp_path):
     old, new = two_releases
     out = tmp_path / "docs" / "mujoco-releases.md"
     three = ("tumbler-intermediate-axis", "gyroscope-nonsingular", "heavy-top")
-    p = _xcheck("releases", *three, "--mujoco", f"{old},{new}", "--out", out, cwd=tmp_path)
-    assert p.returncode == 0, p.stderr
+    code, _ = _main(tmp_path, "releases", *three, "--mujoco", f"{old},{new}", "--out", out)
+    assert code == 0
     text = out.read_text()
     assert f"Made by `xcheck releases {' '.join(three)} --mujoco {old},{new} --out mujoco-releases.md`" in text
     rows = {line.split("|")[1].strip(): [c.strip() for c in line.strip("|").split("|")] for line in text.splitlines()

@@ -9,7 +9,7 @@ state and torque as MuJoCo's runner, MJX's ``step`` on JAX's CPU backend, in flo
   ``xcheck.runners`` ``_held_input_order``). A torque the model exerts itself (a top's gravity, free
   wheels) is MJX's own, at every stage.
 * The steps run in chunks of :data:`CHUNK` through ``jax.lax.scan``, each step's length an input (a shortened last
-  step and the padding of the last chunk, length 0, take no retrace): one compilation per model, integrator,
+  step and the padding of the last chunk, steps of length 0 whose states are dropped, take no retrace): one compilation per model, integrator,
   precision and input kind, kept per process and in JAX's persistent cache under xcheck's user cache
   (``jax/``: 3 s a compilation the first time, 0.8 s from the cache).
 * A blow-up is a failed run, as in MuJoCo's runner: the trajectory ends at the last finite step.
@@ -103,8 +103,7 @@ def _chunk_function(key, mx, torque: bool, motors: tuple):
                 dx = dx.replace(xfrc_applied=xfrc)
             if motors:
                 dx = commands(dx)
-            stepped = mjx.step(mx.replace(opt=mx.opt.replace(timestep=h)), dx)
-            dx = jax.tree_util.tree_map(lambda a, b: jnp.where(h > 0, a, b), stepped, dx)  # padding: no step
+            dx = mjx.step(mx.replace(opt=mx.opt.replace(timestep=h)), dx)  # the last chunk's padding: h = 0, dropped
             return dx, (dx.qpos, dx.qvel)
 
         return jax.lax.scan(one, dx, hs)

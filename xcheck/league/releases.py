@@ -112,7 +112,16 @@ def python_for(version: str, log=print) -> str:
 
 
 def run_probe(version: str, *, scenarios=None, quick: bool = True, log=print) -> dict:
-    """:func:`probe` in MuJoCo ``version``'s environment; :class:`ReleaseError` when it cannot run."""
+    """:func:`probe` in MuJoCo ``version``'s environment (the installed release's here, in this process);
+    :class:`ReleaseError` when it cannot run."""
+    from ..history.matrix import installed_mujoco
+
+    if version == installed_mujoco():
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", category=UserWarning, module=r"xcheck\.models")  # said elsewhere
+            return json.loads(json.dumps(probe(quick=quick, scenarios=scenarios), allow_nan=False))
     py = python_for(version, log)
     with tempfile.TemporaryDirectory(prefix="xcheck-release-") as tmp:
         out = Path(tmp) / "probe.json"
