@@ -73,6 +73,20 @@ def test_mjx_is_opt_in(monkeypatch):
                                                                "mjx-implicitfast", "mjx-implicitfast-x64"]
 
 
+def test_with_mjx_asks_for_its_methods(tmp_path, monkeypatch, capsys):
+    """``--with mjx`` sets $XCHECK_WITH for the command and its workers before any work (here the work stops at once,
+    at a scenario that does not exist, naming it)."""
+    import os
+
+    from xcheck.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("XCHECK_WITH", "")  # recorded, so that the command's setting is undone after the test
+    code = main(["report", "--quick", "--with", "mjx", "--out", str(tmp_path / "r"), "no-such-scenario"])
+    assert code == 2 and "no-such-scenario" in capsys.readouterr().err
+    assert os.environ["XCHECK_WITH"] == "mjx"
+
+
 @pytest.mark.parametrize("args, said", [(["report", "--quick", "--with", "basilisk"], "--with: 'basilisk' is not an opt-in"),
                                         (["bench", "--with", "warp"], "--with: 'warp' is not an opt-in engine"),
                                         (["mjx", "--methods", "mujoco-rk4"], "--methods: 'mujoco-rk4' is not MJX's")])
