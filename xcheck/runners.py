@@ -208,7 +208,7 @@ def _held_input_order(torque: dict | None, model=None):
 
 #: MJX's methods: registered when its package (the extra ``mjx``) is installed; opt-in (``xcheck report --with mjx``)
 MJX_METHODS = {
-    f"mjx-{i}{suffix}": (order, f"MJX's {what} ({precision})", i, suffix == "-x64")
+    f"mjx-{i}{suffix}": (order, f"MJX's {what} ({precision}; opt-in: --with mjx)", i, suffix == "-x64")
     for i, order, what in (("rk4", 4, "RK4"), ("euler", 1, "semi-implicit Euler"), ("implicitfast", 1, "implicitfast"))
     for suffix, precision in (("", "float32, JAX's default"), ("-x64", "float64: jax_enable_x64"))}
 if available("mjx"):
