@@ -406,12 +406,23 @@ def _with_engines(args) -> None:
     os.environ[WITH_VARIABLE] = ",".join(names)
 
 
+def _markdown_and_json(args):
+    """A docs command's ``--out FILE.md`` (returned, None when not given) and ``--json PATH``, checked before any
+    work."""
+    from .report.io import check_output_file
+
+    out = check_output_file(args.out, "--out", suffixes=(".md",)) if args.out else None
+    if args.json:
+        check_output_file(args.json, "--json", suffixes=(".json",))
+    return out
+
+
 def _cmd_league(args) -> int:
     """The boxes benchmark's league table: MuJoCo's integrators and ours beside the published engines."""
     from .league.boxes import STEPS
     from .league.run import QUICK_STEPS, run_league
     from .league.table import checks, markdown, table_rows
-    from .report.io import check_output_file, write_json_atomic
+    from .report.io import write_json_atomic
 
     steps = tuple(_csv_list(args.steps, float, "--steps")) if args.steps else (QUICK_STEPS if args.quick else STEPS)
     if args.steps and args.quick:
@@ -422,9 +433,7 @@ def _cmd_league(args) -> int:
         if dt < 1e-5:
             raise UsageError(f"--steps: {dt:g} s is finer than 1e-05 s (a million steps of the benchmark's 10 s, "
                              "each kept in memory)")
-    out = check_output_file(args.out, "--out", suffixes=(".md",)) if args.out else None
-    if args.json:
-        check_output_file(args.json, "--json", suffixes=(".json",))
+    out = _markdown_and_json(args)
     workers = args.workers or os.cpu_count() or 1
     from .pool import worker_pool
 
@@ -475,15 +484,13 @@ def _cmd_releases(args) -> int:
         rk4_order,
         run_probe,
     )
-    from .report.io import check_output_file, write_json_atomic, write_text_atomic
+    from .report.io import write_json_atomic, write_text_atomic
 
     try:
         versions = parse_versions(args.mujoco) if args.mujoco else list(RELEASES)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    out = check_output_file(args.out, "--out", suffixes=(".md",)) if args.out else None
-    if args.json:
-        check_output_file(args.json, "--json", suffixes=(".json",))
+    out = _markdown_and_json(args)
     if args.bisect:
         if out is not None:
             raise UsageError("--out: a bisection probes only some releases; run without --bisect for the table")
@@ -522,9 +529,11 @@ def _cmd_releases(args) -> int:
         print(f"MuJoCo {v}: {passed} of {len(d['scenarios'])} scenarios passed; free-body RK4 order "
               f"{'—' if order is None else f'{order:.2f}'}")
     progress(len(versions), len(versions), "")
-    good = [v for v in versions if v in probes and is_fourth_order(probes[v])]
-    first = next((v for v in versions if v in probes and all(w in good for w in versions[versions.index(v):]
-                                                                if w in probes)), None)
+    first = None  # the oldest probed release from which every probed release is fourth order
+    for v in reversed([v for v in versions if v in probes]):
+        if not is_fourth_order(probes[v]):
+            break
+        first = v
     print(f"free-body RK4 fourth order from: {first or 'none of these'}")
     if args.json:
         write_json_atomic(args.json, {"schema": "xcheck.releases/1", "probes": probes, "failures": failures,
@@ -540,14 +549,12 @@ def _cmd_releases(args) -> int:
 def _cmd_mjx(args) -> int:
     """MJX in float32 and float64 on the bundled scenarios, and its batched steps per second: docs/mjx.md."""
     from .engines import available
-    from .report.io import check_output_file, write_json_atomic, write_text_atomic
+    from .report.io import write_json_atomic, write_text_atomic
 
     if not available("mjx"):
         raise UsageError("mjx: MJX is not installed here: pip install 'xcheck[mjx]' (the PyPI packages mujoco-mjx "
                          "and jax)")
-    out = check_output_file(args.out, "--out", suffixes=(".md",)) if args.out else None
-    if args.json:
-        check_output_file(args.json, "--json", suffixes=(".json",))
+    out = _markdown_and_json(args)
     from .league.precision import floors, markdown, run_precision_studies
     from .scenario import resolve_scenario
 

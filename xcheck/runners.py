@@ -73,6 +73,9 @@ class Runner:
     clock: Callable[[float], str | None] | None = None
     #: its engine is opt-in (:attr:`xcheck.engines.Engine.opt_in`): the method runs only where it is asked for
     opt_in: bool = False
+    #: ``() -> note or None``: a known finding that the method's failed order check names (an engine release's RK4
+    #: of second order, :func:`xcheck.league.findings.release_note`), read for the version installed; None: none
+    finding: Callable[[], str | None] | None = None
 
     def run_at(self, ctx: RunContext, dt: float, rtol: float | None = None) -> Trajectory:
         """``run`` at the step ``dt`` and, for an adaptive method, the tolerance ``rtol`` (None: its defaults)."""
@@ -85,6 +88,15 @@ class Runner:
             return self.expected_order, None
         order, why = self.order_with(torque, model)
         return (self.expected_order, None) if order is None or order >= self.expected_order else (order, why)
+
+
+def _release_finding(package: str, engine: str):
+    def finding():
+        from .league.findings import release_note
+        from .versions import package_version
+
+        return release_note(package_version(package), engine)
+    return finding
 
 
 def _ours(name):
@@ -173,7 +185,8 @@ RUNNERS: dict[str, Runner] = {
     for name, m in METHODS.items()}
 RUNNERS.update({
     f"mujoco-{i}": Runner(f"mujoco-{i}", "mujoco", order, summary, _mujoco(i), agreement=(i == "rk4"), line_style="--",
-                          twin="lie-rkmk4" if i == "rk4" else None)
+                          twin="lie-rkmk4" if i == "rk4" else None,
+                          finding=_release_finding("mujoco", "MuJoCo") if i == "rk4" else None)
     for i, order, summary in [
         ("rk4", 4, "MuJoCo's RK4 (torque in the control callback at every stage)"),
         ("euler", 1, "MuJoCo's semi-implicit Euler"),
@@ -214,7 +227,8 @@ MJX_METHODS = {
 if available("mjx"):
     RUNNERS.update({name: Runner(name, "mjx", order, summary, _mjx(integrator, x64), line_style="-.",
                                  order_with=_held_input_order, twin="lie-rkmk4" if integrator == "rk4" else None,
-                                 opt_in=True)
+                                 opt_in=True, finding=_release_finding("mujoco-mjx", "MJX") if integrator == "rk4"
+                                 else None)
                     for name, (order, summary, integrator, x64) in MJX_METHODS.items()})
 
 

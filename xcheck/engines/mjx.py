@@ -1,6 +1,6 @@
 """MJX, MuJoCo's JAX port (PyPI ``mujoco-mjx``, the extra ``mjx``), as a runner (issue 29): the same body, initial
 state and torque as MuJoCo's runner, MJX's ``step`` on JAX's CPU backend, in float32 (JAX's default) or float64
-(``x64``: ``jax.enable_x64`` around the run).
+(``x64``: ``jax_enable_x64`` for the run).
 
 * MJX has no control callback: an applied torque is evaluated once per step, at the step's start, and held over it
   in ``xfrc_applied`` (world components), as are a gyrostat's motor commands in ``ctrl``; a host callback
@@ -21,7 +21,7 @@ import numpy as np
 
 from .. import rotations as rot
 from ..fields import TorqueModel, torque_eval
-from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan, time_grid
+from ..trajectory import Trajectory, time_grid
 
 __all__ = ["simulate", "INTEGRATORS", "CHUNK", "bench_extras"]
 
@@ -61,23 +61,20 @@ def jax_modules():
     return _JAX["jax"], _JAX["mjx"]
 
 
-def _x64(jax, on: bool):
-    """JAX in float64 (``on``) or float32, for the whole process (the flag ``jax_enable_x64``: its context manager
+def _set_precision(jax, x64: bool) -> None:
+    """JAX in float64 (``x64``) or float32, for the whole process (the flag ``jax_enable_x64``: its context manager
     is thread-local, and a host callback runs on another thread, where it would turn float64 results into float32).
     JAX's caches of MJX's inner jitted functions do not tell the two apart (float32 code was called with float64
     operands: MLIR's verifier refused it), so they, and ours, are cleared whenever a process changes precision: a
     compilation more (0.8 s from the persistent cache)."""
-    import contextlib
-
-    if _JAX.get("x64") is not None and _JAX["x64"] != on:
+    if _JAX.get("x64") is not None and _JAX["x64"] != x64:
         jax.clear_caches()
         _FUNCS.clear()
-    _JAX["x64"] = on
-    jax.config.update("jax_enable_x64", on)
-    return contextlib.nullcontext()
+    _JAX["x64"] = x64
+    jax.config.update("jax_enable_x64", x64)
 
 
-def _chunk_function(key, mx, torque: bool, motors: tuple):
+def _chunk_function(key, torque: bool, motors: tuple):
     """The jitted chunk of steps for ``key`` (model, integrator, precision, inputs): ``(mx, dx, h (CHUNK,)) -> (dx,
     (qpos (CHUNK, nq), qvel (CHUNK, nv)))``. Before each step, held over it: with ``torque``, the running simulation's
     applied torque from the host (:data:`_INPUTS`: ``(t, qpos, qvel) -> (nbody, 6)`` of ``xfrc_applied``, a host
@@ -121,29 +118,15 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
     JAX versions in ``extras``."""
     import mujoco
 
-    from .mujoco import _first_bad_row, _model_for_runs
+    from ..versions import package_version
+    from .mujoco import _first_bad_row, initial_data, run_trajectory
 
     if integrator not in INTEGRATORS:
         raise ValueError(f"integrator: unknown {integrator!r}; MJX has {', '.join(INTEGRATORS)}")
     jax, mjx = jax_modules()
-    m, body = _model_for_runs(model, inertia_moments)
-    q0, omega0 = check_initial_state(q0, omega0)
-    n, last_h = step_plan(dt, duration)
-    if isinstance(torque, TorqueModel):
-        torque.check_span(duration)
-    elif torque is not None and not callable(torque):
-        raise ValueError(f"torque: expected None, a TorqueModel or a callable (t, q, omega) -> (3,), got "
-                         f"{type(torque).__name__}")
-    m.opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}")
-    m.opt.timestep = float(dt)
-    d = mujoco.MjData(m)
-    qs, ws = body.quat_slice, body.rate_slice
-    d.qpos[qs] = body.to_joint(q0)
-    d.qvel[ws] = omega0
-    for wheel, speed in zip(body.wheels, body.wheel_speeds0(wheel_speeds)):
-        d.qvel[wheel.dof] = speed
+    m, body, d, n, last_h = initial_data(model, getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}"), q0,
+                                         omega0, dt, duration, torque, inertia_moments, wheel_speeds)
     motors = tuple((w.actuator, float(w.gain), *map(float, w.pulse)) for w in body.wheels if w.pulse is not None)
-    held = torque is not None or bool(motors)
     dtype = np.float64 if x64 else np.float32
     inputs = _host_torque(m, body, torque, dtype) if torque is not None else None
     hs = np.full(n, float(dt))
@@ -151,34 +134,29 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
     pad = (-n) % CHUNK
     hs = np.concatenate([hs, np.zeros(pad)]).astype(dtype)
     qpos, qvel = [np.asarray(d.qpos, dtype=float)[None]], [np.asarray(d.qvel, dtype=float)[None]]
-    with _x64(jax, x64):
-        mx = mjx.put_model(m)
-        dx = mjx.put_data(m, d)
-        f = _chunk_function((id(m), integrator, x64, torque is not None, motors), mx, torque is not None, motors)
-        _INPUTS["now"] = inputs
-        for k in range(0, n + pad, CHUNK):
-            dx, (p, v) = f(mx, dx, hs[k:k + CHUNK])
-            qpos.append(np.asarray(p, dtype=float))
-            qvel.append(np.asarray(v, dtype=float))
-            if not (np.all(np.isfinite(qpos[-1])) and np.all(np.isfinite(qvel[-1]))):
-                break
-        _INPUTS.pop("now", None)
+    _set_precision(jax, x64)
+    mx = mjx.put_model(m)
+    dx = mjx.put_data(m, d)
+    f = _chunk_function((id(m), integrator, x64, torque is not None, motors), torque is not None, motors)
+    _INPUTS["now"] = inputs
+    for k in range(0, n + pad, CHUNK):
+        dx, (p, v) = f(mx, dx, hs[k:k + CHUNK])
+        qpos.append(np.asarray(p, dtype=float))
+        qvel.append(np.asarray(v, dtype=float))
+        if not (np.all(np.isfinite(qpos[-1])) and np.all(np.isfinite(qvel[-1]))):
+            break
+    _INPUTS.pop("now", None)
     qpos = np.concatenate(qpos)[: n + 1]
     qvel = np.concatenate(qvel)[: n + 1]
     t = time_grid(n, float(dt), float(duration))
     k = _first_bad_row(qpos, qvel)
     stop = len(qpos) if k is None else k
     method = f"mjx-{integrator}" + ("-x64" if x64 else "")
-    from importlib.metadata import version
-
-    extras = {"mujoco_version": mujoco.__version__, "mjx_version": version("mujoco-mjx"), "jax_version": jax.__version__,
-              "precision": "float64" if x64 else "float32", "evaluations": (4 if integrator == "rk4" else 1) * (stop - 1)}
-    if held:
+    extras = {"mujoco_version": mujoco.__version__, "mjx_version": package_version("mujoco-mjx"),
+              "jax_version": jax.__version__, "precision": "float64" if x64 else "float32"}
+    if torque is not None or motors:
         extras["torque_input"] = "held over each step (xfrc_applied, ctrl): MJX has no control callback"
-    if body.wheels:
-        extras["wheel_speeds"] = qvel[:stop, [w.dof for w in body.wheels]].copy()
-    q = continuous_quaternions(body.from_joint(qpos[:stop, qs]))
-    traj = Trajectory(t=t[:stop], q=q, omega=qvel[:stop, ws].copy(), method=method, dt=float(dt), extras=extras)
+    traj = run_trajectory(body, t, qpos, qvel, stop, method, integrator, dt, extras)
     if stop < n + 1:
         traj.status = "failed"
         traj.message = f"{method}: the simulation blew up at t = {t[stop]:.6g} s (a non-finite or huge state)"
@@ -224,24 +202,24 @@ def batch_rollout(model, *, integrator: str, q0, omega0, dt: float, nsteps: int,
     m.opt.timestep = float(dt)
     d = mujoco.MjData(m)
     q0, omega0 = np.atleast_2d(q0), np.atleast_2d(omega0)
-    with _x64(jax, x64):
-        mx = mjx.put_model(m)
-        dx = mjx.put_data(m, d)
-        qpos = np.repeat(np.asarray(d.qpos)[None], len(q0), axis=0)
-        qvel = np.repeat(np.asarray(d.qvel)[None], len(q0), axis=0)
-        qpos[:, body.quat_slice] = body.to_joint(q0)
-        qvel[:, body.rate_slice] = omega0
-        key = ("batch", id(m), integrator, x64, len(q0), nsteps)
-        if key not in _FUNCS:
-            def run(mx, dx):
-                def one(dx, _):
-                    return jax.vmap(mjx.step, in_axes=(None, 0))(mx, dx), None
-                return jax.lax.scan(one, dx, None, length=nsteps)[0]
-            _FUNCS[key] = jax.jit(run)
-        dtype = np.float64 if x64 else np.float32
-        batch = jax.vmap(lambda p, v: dx.replace(qpos=p, qvel=v))(qpos.astype(dtype), qvel.astype(dtype))
-        out = _FUNCS[key](mx, batch)
-        return np.asarray(out.qpos), np.asarray(out.qvel)
+    dtype = np.float64 if x64 else np.float32
+    _set_precision(jax, x64)
+    mx = mjx.put_model(m)
+    dx = mjx.put_data(m, d)
+    qpos = np.repeat(np.asarray(d.qpos)[None], len(q0), axis=0)
+    qvel = np.repeat(np.asarray(d.qvel)[None], len(q0), axis=0)
+    qpos[:, body.quat_slice] = body.to_joint(q0)
+    qvel[:, body.rate_slice] = omega0
+    key = ("batch", id(m), integrator, x64, len(q0), nsteps)
+    if key not in _FUNCS:
+        def run(mx, dx):
+            def one(dx, _):
+                return jax.vmap(mjx.step, in_axes=(None, 0))(mx, dx), None
+            return jax.lax.scan(one, dx, None, length=nsteps)[0]
+        _FUNCS[key] = jax.jit(run)
+    batch = jax.vmap(lambda p, v: dx.replace(qpos=p, qvel=v))(qpos.astype(dtype), qvel.astype(dtype))
+    out = _FUNCS[key](mx, batch)
+    return np.asarray(out.qpos), np.asarray(out.qvel)
 
 
 def bench_extras(contexts, dt, nsteps, repeat):

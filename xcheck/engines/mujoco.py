@@ -157,23 +157,8 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
         raise ValueError(f"integrator: unknown {integrator!r}; expected one of {', '.join(INTEGRATORS)}")
     if torque_mode not in ("callback", "held"):
         raise ValueError(f"torque_mode: expected 'callback' or 'held', got {torque_mode!r}")
-    m, body = _model_for_runs(model, inertia_moments)
-    q0, omega0 = check_initial_state(q0, omega0)
-    n, last_h = step_plan(dt, duration)
-    if isinstance(torque, TorqueModel):
-        torque.check_span(duration)
-    elif torque is not None and not callable(torque):
-        raise ValueError(f"torque: expected None, a TorqueModel or a callable (t, q, omega) -> (3,), got "
-                         f"{type(torque).__name__}")
-    m.opt.integrator = INTEGRATORS[integrator]
-    m.opt.timestep = float(dt)
-    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET  # a blow-up must show, not restart from rest
-    d = mujoco.MjData(m)
-    qs, ws = body.quat_slice, body.rate_slice
-    d.qpos[qs] = body.to_joint(q0)  # a ball joint's qpos is relative to the body's reference orientation
-    d.qvel[ws] = omega0
-    for wheel, speed in zip(body.wheels, body.wheel_speeds0(wheel_speeds)):
-        d.qvel[wheel.dof] = speed
+    m, body, d, n, last_h = initial_data(model, INTEGRATORS[integrator], q0, omega0, dt, duration, torque,
+                                         inertia_moments, wheel_speeds)
     t = time_grid(n, float(dt), float(duration))
     with mujoco_warnings() as messages:
         if torque is None and not any(w.pulse for w in body.wheels):
@@ -182,20 +167,50 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
             qpos, qvel = _stepped(m, d, n, last_h, body, torque, torque_mode)
     method = f"mujoco-{integrator}"
     k = _first_bad_row(qpos, qvel)
-    stop = k if k is not None else (n + 1)
-    q = continuous_quaternions(body.from_joint(qpos[:stop, qs]))
-    # its forward dynamics: four evaluations a step in RK4, one in the Euler variants
-    evaluations = (4 if integrator == "rk4" else 1) * (stop - 1)
-    extras = {"mujoco_version": mujoco.__version__, "evaluations": evaluations}
-    if body.wheels:
-        extras["wheel_speeds"] = qvel[:stop, [w.dof for w in body.wheels]].copy()
-    traj = Trajectory(t=t[:stop], q=q, omega=qvel[:stop, ws].copy(), method=method, dt=float(dt), extras=extras)
+    traj = run_trajectory(body, t, qpos, qvel, n + 1 if k is None else k, method, integrator, dt,
+                          {"mujoco_version": mujoco.__version__})
     if messages or k is not None:
         traj.status = "failed"
         where = f"at t = {t[k]:.6g} s" if k is not None else "during the run"
         said = " ".join(list(dict.fromkeys(m.strip() for m in messages))[:3]) or "the state became non-finite or huge"
         traj.message = f"{method}: the simulation blew up {where}; MuJoCo: {said}"
     return traj
+
+
+def initial_data(model, integrator, q0, omega0, dt, duration, torque, inertia_moments, wheel_speeds):
+    """A run's compiled model (its integrator, an ``mjtIntegrator``, and step set; MuJoCo's reset on a blow-up off)
+    and its ``MjData`` at the initial state, a gyrostat's wheels at their speeds, with the step plan ``(n,
+    last_h)``: ``(m, body, d, n, last_h)``, the arguments checked as every run of an MJCF checks them (MuJoCo's
+    and MJX's)."""
+    m, body = _model_for_runs(model, inertia_moments)
+    q0, omega0 = check_initial_state(q0, omega0)
+    n, last_h = step_plan(dt, duration)
+    if isinstance(torque, TorqueModel):
+        torque.check_span(duration)
+    elif torque is not None and not callable(torque):
+        raise ValueError(f"torque: expected None, a TorqueModel or a callable (t, q, omega) -> (3,), got "
+                         f"{type(torque).__name__}")
+    m.opt.integrator = integrator
+    m.opt.timestep = float(dt)
+    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET  # a blow-up must show, not restart from rest
+    d = mujoco.MjData(m)
+    d.qpos[body.quat_slice] = body.to_joint(q0)  # a ball joint's qpos is relative to the body's reference orientation
+    d.qvel[body.rate_slice] = omega0
+    for wheel, speed in zip(body.wheels, body.wheel_speeds0(wheel_speeds)):
+        d.qvel[wheel.dof] = speed
+    return m, body, d, n, last_h
+
+
+def run_trajectory(body, t, qpos, qvel, stop, method, integrator, dt, extras) -> Trajectory:
+    """The Trajectory of a run's first ``stop`` rows of ``qpos``/``qvel`` (the body's world attitude, its rate, a
+    gyrostat's wheel speeds in ``extras``), with its forward dynamics' evaluations: four a step in RK4, one in the
+    Euler variants."""
+    extras = {**extras, "evaluations": (4 if integrator == "rk4" else 1) * (stop - 1)}
+    if body.wheels:
+        extras["wheel_speeds"] = qvel[:stop, [w.dof for w in body.wheels]].copy()
+    q = continuous_quaternions(body.from_joint(qpos[:stop, body.quat_slice]))
+    return Trajectory(t=t[:stop], q=q, omega=qvel[:stop, body.rate_slice].copy(), method=method, dt=float(dt),
+                      extras=extras)
 
 
 def _rollout_free(m, d, n, last_h):

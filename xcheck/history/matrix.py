@@ -40,9 +40,9 @@ class MatrixError(ValueError):
 def parse_versions(text: str) -> list[str]:
     """``"3.2.7, 4.0.0"`` -> ``["3.2.7", "4.0.0"]``; ``"releases"``: the newest patch of every minor release from 3.2
     to 4.0 (:data:`xcheck.league.findings.RELEASES`); ValueError naming ``--mujoco`` for anything else."""
-    if text.strip() == "releases":
-        from ..league.findings import RELEASES
+    from ..league.findings import RELEASES, release_key
 
+    if text.strip() == "releases":
         return list(RELEASES)
     items = [v.strip() for v in text.split(",")]
     if not any(items):
@@ -54,7 +54,7 @@ def parse_versions(text: str) -> list[str]:
             raise ValueError(f"--mujoco: {v!r} is not a release number like 3.2.7")
     if len(set(items)) < len(items):
         raise ValueError(f"--mujoco: a release is given more than once ({text})")
-    return sorted(items, key=lambda v: tuple(map(int, v.split("."))))
+    return sorted(items, key=release_key)
 
 
 def installed_mujoco() -> str | None:

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from datetime import datetime, timezone
 
+from ..report.render import fmt
+
 #: Beside MJX's six: MuJoCo's RK4 (the same model in C, float64) and our reference-grade method (the study's floor)
 BESIDE = ("mujoco-rk4", "lie-rkmk4")
 TOLERANCES = ("1e-03", "1e-06", "1e-09")
@@ -45,10 +47,6 @@ def floors(studies) -> list[dict]:
     return rows
 
 
-def _fmt(x, spec=".2g") -> str:
-    return "—" if x is None else format(x, spec)
-
-
 def markdown(rows, bench, *, version: str, versions: dict, command: str) -> str:
     """``docs/mjx.md``: the floors per scenario, the summary per method, the benchmark rows."""
     now = datetime.now(timezone.utc).strftime("%Y-%m-%d")
@@ -67,7 +65,7 @@ def markdown(rows, bench, *, version: str, versions: dict, command: str) -> str:
         best = min((r["floor"] for r in mine if r["floor"] is not None), default=None)
         worst = max((r["floor"] for r in mine if r["floor"] is not None), default=None)
         reach = {tol: sum(r["within"][tol] is not None for r in mine) for tol in TOLERANCES}
-        summary.append([m, f"{_fmt(best)} … {_fmt(worst)}",
+        summary.append([m, f"{fmt(best, '.2g')} … {fmt(worst, '.2g')}",
                         *(f"{reach[tol]} of {len(mine)}" for tol in TOLERANCES)])
     lines += ["## The floors, in brief", "",
               "The smallest error a method reached on a scenario (at its finest quick step: for float32, its floor), "
@@ -80,8 +78,8 @@ def markdown(rows, bench, *, version: str, versions: dict, command: str) -> str:
               "| scenario | method | expected order | observed | error at the finest step [rad] | largest step within "
               "1e-3 rad [s] | 1e-6 rad | 1e-9 rad |", "|---|---|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
-        lines.append(f"| {r['scenario']} | {r['method']} | {_fmt(r['expected'], 'd')} | {_fmt(r['observed'], '.2f')} | "
-                     f"{_fmt(r['floor'])} | " + " | ".join(_fmt(r["within"][t], ".3g") for t in TOLERANCES) + " |")
+        lines.append(f"| {r['scenario']} | {r['method']} | {fmt(r['expected'], 'd')} | {fmt(r['observed'], '.2f')} | "
+                     f"{fmt(r['floor'], '.2g')} | " + " | ".join(fmt(r["within"][t], ".3g") for t in TOLERANCES) + " |")
     if bench:
         lines += ["", "## Steps per second on this CPU", "",
                   "`xcheck bench --quick --with mjx` rows, best of 2: MJX's RK4 on one body (torque free, and with "

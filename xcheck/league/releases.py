@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import subprocess
+from collections import Counter
 import sys
 import tempfile
 from datetime import datetime, timezone
@@ -239,11 +240,8 @@ def markdown(probes: dict, failures: dict, *, version: str, command: str, first_
               "Each failed check of MuJoCo's integrators, with the number of bundled scenarios where it failed.", ""]
     for v in releases:
         if v in probes:
-            counts: dict = {}
-            for s in probes[v]["scenarios"].values():
-                for f in s["failed"]:
-                    counts[f.split(":", 2)[0] + ":" + f.split(":", 2)[1]] = counts.get(
-                        f.split(":", 2)[0] + ":" + f.split(":", 2)[1], 0) + 1
+            counts = Counter(":".join(f.split(":", 2)[:2]) for s in probes[v]["scenarios"].values()
+                             for f in s["failed"])
             lines.append(f"- **{v}**: " + ("nothing" if not counts else
                                            ", ".join(f"{name} in {n}" for name, n in sorted(counts.items()))))
     lines.append("")

@@ -31,66 +31,57 @@ def box_model() -> str:
     return str(BUNDLED_MODELS / "box.xml")
 
 
-def _attitude_error(case: B.Case, q_end, t_end) -> float:
-    q_exact, _ = exact_torque_free(B.INERTIA, [1.0, 0, 0, 0], case.omega0, np.array([0.0, t_end]))
-    return float(attitude_error(q_end, q_exact[-1]))
-
-
-def mujoco_rows(case_name: str, integrator: str, steps=B.STEPS) -> list[dict]:
-    """MuJoCo's ``integrator`` on one case at each step: the benchmark's four errors and the attitude error."""
-    from ..engines.mujoco import free_flight
-
+def _rows(case_name: str, engine: str, method: str, steps, fly) -> list[dict]:
+    """One method on one case at each step: ``fly(case, dt, n) -> (t, q, omega, c, v)`` (``c``, ``v`` None for an
+    attitude-only run, whose centre of mass is the exact parabola); the benchmark's errors and the attitude error at
+    the end against the exact solution."""
     case = B.CASES[case_name]
     rows = []
     for dt in steps:
         n = B.step_count(dt)
         start = time.perf_counter()
+        t, q, w, c, v = fly(case, dt, n)
+        wall = time.perf_counter() - start
+        position, velocity = (None, None) if c is None else B.translation_errors(case, t, c, v)
+        q_exact, _ = exact_torque_free(B.INERTIA, [1.0, 0, 0, 0], case.omega0, np.array([0.0, t[-1]]))
+        rows.append({"case": case.name, "engine": engine, "method": method, "dt": dt, "steps": n, "sim_time": n * dt,
+                     "wall_time": wall, "momentum_error": B.angular_momentum_error(q, w),
+                     "energy_error": B.energy_error(case, w, c, v, t), "position_error": position,
+                     "velocity_error": velocity, "attitude_error": float(attitude_error(q[-1], q_exact[-1]))})
+    return rows
+
+
+def mujoco_rows(case_name: str, integrator: str, steps=B.STEPS) -> list[dict]:
+    """MuJoCo's ``integrator`` on one case at each step, flying the whole body (translation and gravity included)."""
+    from ..engines.mujoco import free_flight
+
+    def fly(case, dt, n):
         t, c, q, v, w = free_flight(box_model(), integrator=integrator, omega0=case.omega0, v0=case.v0,
                                     gravity=case.gravity, dt=dt, nsteps=n)
-        wall = time.perf_counter() - start
-        position, velocity = B.translation_errors(case, t, c, v)
-        rows.append(_row(case, "mujoco", f"mujoco-{integrator}", dt, n, wall,
-                         B.angular_momentum_error(q, w), B.energy_error(case, w, c, v), position, velocity,
-                         _attitude_error(case, q[-1], t[-1])))
-    return rows
+        return t, q, w, c, v
+    return _rows(case_name, "mujoco", f"mujoco-{integrator}", steps, fly)
 
 
 def our_rows(case_name: str, method: str, steps=B.STEPS) -> list[dict]:
     """One of our methods on one case at each step (attitude only: no translation errors of its own)."""
-    case = B.CASES[case_name]
-    rows = []
-    for dt in steps:
-        n = B.step_count(dt)
-        start = time.perf_counter()
+    def fly(case, dt, n):
         traj = integrate(method, B.INERTIA, [1.0, 0, 0, 0], case.omega0, dt=dt, duration=n * dt,
                          sequence=SEQUENCE[case_name])
-        wall = time.perf_counter() - start
         if traj.status != "ok":
             raise RuntimeError(f"{method} on the boxes' {case_name} case at dt = {dt:g} s: {traj.message}")
-        rows.append(_row(case, "xcheck", method, dt, n, wall, B.angular_momentum_error(traj.q, traj.omega),
-                         B.energy_error(case, traj.omega, t=traj.t), None, None,
-                         _attitude_error(case, traj.q[-1], traj.t[-1])))
-    return rows
+        return traj.t, traj.q, traj.omega, None, None
+    return _rows(case_name, "xcheck", method, steps, fly)
 
 
-def _row(case, engine, method, dt, n, wall, momentum, energy, position, velocity, attitude) -> dict:
-    return {"case": case.name, "engine": engine, "method": method, "dt": dt, "steps": n, "sim_time": n * dt,
-            "wall_time": wall, "momentum_error": momentum, "energy_error": energy, "position_error": position,
-            "velocity_error": velocity, "attitude_error": attitude}
-
-
-def league_tasks(cases=tuple(B.CASES), steps=B.STEPS, methods=None) -> list[tuple]:
+def league_tasks(cases=tuple(B.CASES), steps=B.STEPS) -> list[tuple]:
     """``(function, case, method, steps)`` for every method on every case: MuJoCo's first (its runs are the longest)."""
-    ours = [m for m in (methods or OURS) if m in OURS]
-    mj = [m.removeprefix("mujoco-") for m in (methods or [f"mujoco-{i}" for i in MUJOCO_INTEGRATORS])
-          if m.removeprefix("mujoco-") in MUJOCO_INTEGRATORS]
-    return ([(mujoco_rows, c, i, tuple(steps)) for c in cases for i in mj]
-            + [(our_rows, c, m, tuple(steps)) for c in cases for m in ours])
+    return ([(mujoco_rows, c, i, tuple(steps)) for c in cases for i in MUJOCO_INTEGRATORS]
+            + [(our_rows, c, m, tuple(steps)) for c in cases for m in OURS])
 
 
-def run_league(steps=B.STEPS, *, pool=None, progress=None, methods=None) -> list[dict]:
+def run_league(steps=B.STEPS, *, pool=None, progress=None) -> list[dict]:
     """Every row of the league at ``steps``: in ``pool`` (an executor) when given, else here."""
-    tasks = league_tasks(steps=steps, methods=methods)
+    tasks = league_tasks(steps=steps)
     rows = []
     if pool is None:
         for k, (fn, *args) in enumerate(tasks):

@@ -9,18 +9,13 @@ from datetime import datetime, timezone
 
 import numpy as np
 
+from ..report.render import fmt
 from . import boxes as B
 
 #: What a fourth-order method (MuJoCo's RK4, ours) must keep at the benchmark's steps: the relative momentum and
 #: energy errors (measured: at most 4e-11 at 1e-3 s, 2e-10 at 1e-4 s, where round-off of 1e5 steps dominates)
 FOURTH_ORDER_BOUND = 1e-8
 ENGINE_NAMES = {"ode": "ODE", "bullet": "Bullet", "simbody": "Simbody", "dart": "DART"}
-
-
-def _fmt(x) -> str:
-    if x is None:
-        return "—"
-    return "0" if x == 0 else f"{x:.3g}"
 
 
 def slope(rows, key: str) -> float | None:
@@ -70,11 +65,11 @@ def table_rows(rows, case: str, steps) -> tuple[list[str], list[list[str]]]:
         at = {round(r["dt"], 6): r for r in e["rows"]}
         line = [str(k), _who(e)]
         for key in ("momentum_error", "energy_error"):
-            line += [_fmt(at[round(dt, 6)][key]) if round(dt, 6) in at else "—" for dt in shown]
+            line += [fmt(at[round(dt, 6)][key], ".3g") if round(dt, 6) in at else "—" for dt in shown]
         last = at.get(round(max(steps), 6), {})
         position = last.get("position_error")
-        line.append("exact (attitude only)" if e["source"] == "xcheck" else _fmt(position))
-        line.append(_fmt(last.get("attitude_error")) if e["source"] != "published" else "—")
+        line.append("exact (attitude only)" if e["source"] == "xcheck" else fmt(position, ".3g"))
+        line.append(fmt(last.get("attitude_error"), ".3g") if e["source"] != "published" else "—")
         if len(steps) > 1:
             line.append("—" if e["order"] is None else f"{e['order']:.2f}")
         body.append(line)
@@ -154,9 +149,9 @@ def markdown(rows, steps, *, version: str, versions: dict, command: str) -> str:
     for case in B.CASES:
         for e in entries(rows, case, steps):
             for r in e["rows"]:
-                pos = "exact" if e["source"] == "xcheck" else _fmt(r.get("position_error"))
-                lines.append(f"| {case} | {_who(e)} | {r['dt']:g} | {_fmt(r['momentum_error'])} | "
-                             f"{_fmt(r['energy_error'])} | {pos} |")
+                pos = "exact" if e["source"] == "xcheck" else fmt(r.get("position_error"), ".3g")
+                lines.append(f"| {case} | {_who(e)} | {r['dt']:g} | {fmt(r['momentum_error'], '.3g')} | "
+                             f"{fmt(r['energy_error'], '.3g')} | {pos} |")
     lines.append("")
     return "\n".join(lines)
 

@@ -111,7 +111,7 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
 
             bench = measure(quick=quick, repeat=1)
         determined = determination_section(determinations.values()) if determinations else None
-        league_sec = _league_section(league, quick)
+        league_sec = _league_section(league)
         folder = write_report(studies, out, throughput=throughput_rows(studies) + (bench or []),
                               wall_time=time.perf_counter() - t0, quick=quick, pool=pool,
                               figures=figures.futures if figures else None,
@@ -209,7 +209,7 @@ def _start_league(scenarios, pool, quick: bool):
                    for fn, *args in league_tasks(steps=steps)]
 
 
-def _league_section(league, quick: bool) -> Section | None:
+def _league_section(league) -> Section | None:
     if league is None:
         return None
     from ..league.table import section

@@ -76,13 +76,10 @@ def _order(m: MethodResult, cfg, ctx) -> Check | None:
                      f"no asymptotic range ({m.order_note}); every step within {worst:.2g} rad")
     passed = expected - cfg["order_tolerance"] <= order <= expected + cfg["order_excess"]
     note = m.order_note
-    if not passed and m.name in ("mujoco-rk4", "mjx-rk4", "mjx-rk4-x64"):  # a known finding: named, with the fix
-        from ..league.findings import release_note
-        from ..versions import package_version
-
-        engine = "MJX" if m.name.startswith("mjx") else "MuJoCo"
-        finding = release_note(package_version("mujoco-mjx" if engine == "MJX" else "mujoco"), engine)
-        note += f"; {finding}" if finding else ""
+    runner = RUNNERS.get(m.name)
+    finding = runner.finding() if not passed and runner is not None and runner.finding else None
+    if finding:  # a known finding of the engine's release: named, with the release to take
+        note += f"; {finding}"
     if passed and order > expected + cfg["order_tolerance"]:
         note += "; faster than its order here: pre-asymptotic (the next error term still dominates)"
     return Check("order", passed, m.name, order, expected, note)
