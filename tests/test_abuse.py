@@ -136,9 +136,27 @@ def test_dop853_within_budget_matches_exact():
     assert attitude_error(q_d, q_ex).max() < 1e-11
 
 
-def test_exact_asymmetric_reference_refuses_too_many_panels():
-    with pytest.raises(ReferenceFailure, match="quadrature panels"):
-        exact_torque_free([1.0, 2.0, 3.0], [1, 0, 0, 0], HUGE_W, np.linspace(0, 10, 11))
+def test_exact_asymmetric_reference_has_no_effort_to_bound():
+    """Issue 36: the spin angle is Legendre's third integral in closed form, each time computed on its own: the
+    blow-up's rate [1e6, 1e3, 2e3] rad/s over 10 s (1e7 rad turned; the quadrature once refused it at 2 million
+    panels) is evaluated like any other, and keeps the body's energy and momentum (truth: both conserved exactly;
+    tolerance: 1e-12 relative, a few round-offs of the elliptic functions)."""
+    from xcheck.metrics import kinetic_energy, world_momentum
+
+    I = np.diag([1.0, 2.0, 3.0])
+    q, w = exact_torque_free(I, [1, 0, 0, 0], HUGE_W, np.linspace(0, 10, 11))
+    E, H = kinetic_energy(I, w), world_momentum(I, q, w)
+    assert np.all(np.abs(E / E[0] - 1) < 1e-12)
+    assert np.all(np.linalg.norm(H - H[0], axis=1) / np.linalg.norm(H[0]) < 1e-12)
+
+
+def test_the_guard_of_an_exact_reference_has_a_bounded_effort():
+    """The guard's DOP853 (issue 36) is refused at once where the motion plainly needs more steps than its budget
+    (1e7 rad turned, about 3e7 steps): the study then has no checked reference, and says why."""
+    from xcheck.reference import check_exact
+
+    with pytest.raises(ReferenceFailure, match="could not be run: .*steps"):
+        check_exact(np.diag([1.0, 2.0, 3.0]), [1, 0, 0, 0], HUGE_W, 10.0)
 
 
 def test_reference_over_budget_fails_the_study_with_the_reason(tmp_path, capsys):

@@ -79,18 +79,25 @@ def test_reference_failure_is_the_one_check(scenario):
 
 
 def test_a_reference_that_fails_when_evaluated_fails_the_study(scenario, monkeypatch):
-    """The exact reference's quadrature is bounded when it is evaluated on a run's grid, not when it is built: a
-    failure there (found on a 1000 s tumbler at 1/2048 s: 2.05e6 panels) is the study's one "reference" check,
-    not an internal error. Here the bound is 60 panels: building the 10 s tumbler's reference needs 47, its
-    grid at 1/8 s (81 times) needs 80."""
+    """A reference that fails on a run's grid (after its guard passed, at the guard's own times) is the study's one
+    "reference" check, not an internal error. Here the closed form refuses any grid of more than 20 times (the guard
+    asks for 16)."""
     from xcheck import reference
     from xcheck.study import context
 
-    monkeypatch.setattr(reference, "_MAX_PANELS", 60)
+    exact = reference.exact_reference
+
+    def refusing(inertia, q0, omega0, t, torque=None):
+        if len(t) > 20:
+            raise reference.ReferenceFailure("a closed form that gives up on long grids")
+        return exact(inertia, q0, omega0, t, torque)
+
+    monkeypatch.setattr(reference, "exact_reference", refusing)
+    monkeypatch.setattr(context, "exact_reference", refusing)
     monkeypatch.setattr(context, "_CACHE", {})  # no reference of this scenario from an earlier test
     st = run_study(scenario, methods=["lie-rkmk4"], steps=[0.125, 0.0625], workers=1)
     assert [c.name for c in st.checks] == ["reference"] and not st.passed
-    assert "quadrature panels (at most 60)" in st.checks[0].note
+    assert "a closed form that gives up on long grids" in st.checks[0].note
 
 
 def test_json_keeps_the_schema(scenario):

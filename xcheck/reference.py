@@ -13,18 +13,27 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from fractions import Fraction
+
 import numpy as np
-from scipy.special import ellipj, ellipk, ellipkinc
+from scipy.special import ellipk, elliprf, elliprj
 
 from . import rotations as rot
 from .body import principal_axes, validate_inertia
 from .trajectory import check_initial_state, continuous_quaternions
 
-__all__ = ["exact_torque_free", "exact_reference", "exact_why_not", "exact_gyrostat", "gyrostat_why_not", "lagrange_top", "lagrange_why_not", "dop853", "dop853_solution", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL",
+__all__ = ["exact_torque_free", "exact_reference", "check_exact", "ReferenceCheck", "guard_times", "exact_kind", "GUARD_BOUND", "exact_why_not", "exact_gyrostat", "gyrostat_why_not", "lagrange_top", "lagrange_why_not", "dop853", "dop853_solution", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL",
            "ReferenceFailure", "solve_bounded"]
 
-#: Principal moments closer than this (relative to the largest) are treated as equal (axisymmetry).
-EQUAL_MOMENTS_RTOL = 1e-12
+#: Principal moments closer than this (relative to the largest) are equal (axisymmetry): the round-off of the
+#: principal moments of a turned tensor. Any larger difference is the body's own and the elliptic solution takes
+#: it (exact as the moments close up: m -> 0). (1e-12 here once made a body of moments 1e-12 apart turning at
+#: 100 rad/s axisymmetric, 1e-9 rad off after 10 s.)
+EQUAL_MOMENTS_RTOL = 4 * np.finfo(float).eps
+#: A top's or a gyrostat's inertia is symmetric about its axis (Lagrange's top, the axisymmetric gyrostat) when it
+#: departs from the symmetric tensor by at most this, relative to its norm (else no closed form: DOP853).
+SYMMETRY_RTOL = 1e-14
 #: Quadrature panels span at most this much of the elliptic argument tau (10 Gauss-Legendre nodes each).
 _PANEL_TAU = 0.25
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(10)
@@ -102,43 +111,51 @@ def _axisymmetric(J, axis, q0, w0, t):
 
 def _asymmetric(J, q0, w0, t):
     """Jacobi elliptic functions for the body rate; a 3-1-3 chart on a world frame whose z is the fixed
-    angular momentum for the attitude, its precession angle by Gauss-Legendre quadrature."""
-    E2 = float(np.dot(w0, J * w0))  # 2 x kinetic energy
-    h2 = float(np.dot(J * w0, J * w0))  # |h|^2
-    # the axis the body rate circulates about: the largest moment if h^2 > 2 E I2, else the smallest;
+    angular momentum for the attitude, its precession angle in closed form (Legendre's third integral,
+    :func:`_pi_of`): exact at every time on its own, whatever the grid."""
+    # The parameters come from the moments' differences and the rates in exact rational arithmetic, rounded once:
+    # h^2 - 2 E J2, which decides the motion near the intermediate axis's separatrix, is a difference of two
+    # nearly equal terms there (in floating point it kept 1e-6 of its value at 1e-10 from the separatrix), and
+    # E2 J3 - h^2 loses the digits of a near-isotropic body's differences. So m and 1 - m are each correct to
+    # the last bit, and every parameter belongs to the one body (J, w0).
+    Jq, wq = [Fraction(float(v)) for v in J], [Fraction(float(v)) for v in w0]
+    Z = Jq[2] * wq[2] ** 2 * (Jq[2] - Jq[1]) - Jq[0] * wq[0] ** 2 * (Jq[1] - Jq[0])  # h^2 - 2 E J2
+    # the axis the body rate circulates about: the largest moment if h^2 >= 2 E J2, else the smallest;
     # relabel it axis 3 with a proper rotation P (body comps = P @ relabelled comps)
-    if h2 >= E2 * J[1]:
-        P = np.eye(3)
+    if Z >= 0:
+        P, order, signs = np.eye(3), (0, 1, 2), (1, 1, 1)
     else:
         P = np.array([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])  # columns e3, -e2, e1; det +1
+        order, signs, Z = (2, 1, 0), (1, -1, 1), -Z
     qP = rot.dcm_to_quat(P)
-    J = np.abs(P.T @ J)  # moments relabelled (P is a signed permutation)
+    J = np.abs(P.T @ J)  # moments relabelled (P is a signed permutation): ascending, or descending
     w = P.T @ w0
+    J1q, J2q, J3q = (Jq[i] for i in order)
+    w1q, w2q, w3q = (s * wq[i] for s, i in zip(signs, order))
     q_start = rot.quat_mul(q0, qP)
     J1, J2, J3 = J
-    A1 = np.sqrt(abs((E2 * J3 - h2) / (J1 * (J3 - J1))))
-    A2 = np.sqrt(abs((E2 * J3 - h2) / (J2 * (J3 - J2))))
-    A3 = np.sqrt(abs((h2 - E2 * J1) / (J3 * (J3 - J1))))
-    lam = np.sqrt(abs((J3 - J2) * (h2 - E2 * J1) / (J1 * J2 * J3)))
-    m = min(abs((J2 - J1) * (E2 * J3 - h2) / ((J3 - J2) * (h2 - E2 * J1))), 1.0)
+    D31, D32, D21 = J3q - J1q, J3q - J2q, J2q - J1q  # signed: all negative when descending
+    X = J1q * w1q ** 2 * D31 + J2q * w2q ** 2 * D32  # 2 E J3 - h^2
+    Y = J2q * w2q ** 2 * D21 + J3q * w3q ** 2 * D31  # h^2 - 2 E J1
+    A1 = np.sqrt(float(X / (J1q * D31)))
+    A2 = np.sqrt(float(X / (J2q * D32)))
+    A3 = np.sqrt(float(Y / (J3q * D31)))
+    lam = np.sqrt(float(D32 * Y / (J1q * J2q * J3q)))
+    m, m1 = float(D21 * X / (D32 * Y)), float(D31 * (Z if D31 > 0 else -Z) / (D32 * Y))  # m + m1 = 1
+    n = float(-J3q * D21 / (J1q * D32))
     s3 = 1.0 if w[2] >= 0 else -1.0
-    s2 = s3 * np.sign(J3 - J2)  # from Euler's equations: w2 = s2 A2 sn keeps I2 w2' = (I3 - I1) w3 w1
-    tau0 = ellipkinc(np.arctan2(w[1] / (s2 * A2), w[0] / A1), m)
-
-    def rates(tt):
-        sn, cn, dn, _ = ellipj(tau0 + lam * tt, m)
-        return np.stack([A1 * cn, s2 * A2 * sn, s3 * A3 * dn], axis=-1)
-
-    h = np.sqrt(h2)
-
-    def psi_dot(tt):  # seed-independent classic: h (J1 w1^2 + J2 w2^2) / ((J1 w1)^2 + (J2 w2)^2)
-        r = rates(tt)
-        num = J1 * r[..., 0] ** 2 + J2 * r[..., 1] ** 2
-        den = (J1 * r[..., 0]) ** 2 + (J2 * r[..., 1]) ** 2
-        return h * num / den
-
-    omega = rates(t)
-    psi = _cumulative_quadrature(psi_dot, t, _PANEL_TAU / lam)
+    s2 = s3 * np.sign(float(D32))  # from Euler's equations: w2 = s2 A2 sn keeps I2 w2' = (I3 - I1) w3 w1
+    sn0, cn0 = w[1] / (s2 * A2), w[0] / A1
+    r = np.hypot(sn0, cn0)
+    tau0 = _elliptic_argument(sn0 / r, cn0 / r, m1)
+    h = float(np.linalg.norm(J * w))
+    # psi' = h (J1 w1^2 + J2 w2^2) / ((J1 w1)^2 + (J2 w2)^2) = h/J3 + h (J3 - J1) / (J1 J3 (1 - n sn^2)) with
+    # n = J3 (J1 - J2) / (J1 (J3 - J2)) <= 0 (energy and momentum eliminate w1, w2; the same in either labelling):
+    # psi = h t / J3 + h (J3 - J1) / (J1 J3 lam) [Pi(n; am tau) - Pi(n; am tau0)], tau = lam t + tau0
+    (sn, cn, dn), pi_t = _pi_of(n, m, m1, lam * t + tau0)
+    _, pi_0 = _pi_of(n, m, m1, np.array([tau0]))
+    psi = h * t / J3 + h * float(D31) / (J1 * J3 * lam) * (pi_t - pi_0[0])
+    omega = np.stack([A1 * cn, s2 * A2 * sn, s3 * A3 * dn], axis=-1)
     Jw = omega * J
     theta = np.arctan2(np.hypot(Jw[:, 0], Jw[:, 1]), Jw[:, 2])
     phi = np.arctan2(Jw[:, 0], Jw[:, 1])
@@ -151,27 +168,70 @@ def _asymmetric(J, q0, w0, t):
     return rot.quat_mul(q, rot.quat_conj(qP)), omega @ P.T
 
 
-def _cumulative_quadrature(f, t, max_panel):
-    """``int_0^t f`` at each time of ``t`` (any order, any sign) by 10-point Gauss-Legendre on panels no
-    longer than ``max_panel`` between consecutive knots (the requested times and 0)."""
-    knots, inverse = np.unique(np.concatenate([[0.0], t]), return_inverse=True)
-    lengths = np.diff(knots)
-    counts = np.maximum(1, np.ceil(lengths / max_panel).astype(np.int64))
-    if counts.sum() > _MAX_PANELS:
-        raise ReferenceFailure(f"the exact reference would need {counts.sum():.3g} quadrature panels (at most "
-                               f"{_MAX_PANELS}): the body turns too fast over this duration; shorten it or lower "
-                               "the rates")
-    # panels: each knot interval split into `counts` equal parts
-    seg = np.repeat(np.arange(len(lengths)), counts)
-    k = np.arange(len(seg)) - np.repeat(np.cumsum(counts) - counts, counts)
-    width = lengths[seg] / counts[seg]
-    left = knots[seg] + k * width
-    nodes = left[:, None] + 0.5 * width[:, None] * (_GL_NODES + 1.0)
-    panel = 0.5 * width * (f(nodes) @ _GL_WEIGHTS)
-    per_interval = np.bincount(seg, weights=panel, minlength=len(lengths))
-    cumulative = np.concatenate([[0.0], np.cumsum(per_interval)])
-    zero = np.searchsorted(knots, 0.0)
-    return (cumulative - cumulative[zero])[inverse[1:]]
+# ------------------------------------------------------------------------------------------------
+# elliptic functions with the complementary parameter given: exact near m = 0 and m = 1
+# ------------------------------------------------------------------------------------------------
+def _complete_k(m1: float) -> float:
+    """``K(m) = R_F(0, m1, 1)`` (DLMF 19.25.1) from the complementary parameter ``m1 = 1 - m``: accurate as m -> 1,
+    infinite at m1 = 0 (the separatrix)."""
+    return float(elliprf(0.0, m1, 1.0)) if m1 > 0 else np.inf
+
+
+def _jacobi(u, m: float, m1: float):
+    """``sn, cn, dn`` of ``u`` (any shape, ``|u| <= K`` for full accuracy) at parameter ``m`` (``m1 = 1 - m`` given
+    separately, so that neither is a difference of nearly equal numbers): the arithmetic-geometric mean and its
+    descending back-substitution (Abramowitz & Stegun 16.4), started from ``b0 = sqrt(m1)`` instead of
+    ``sqrt(1 - m)``; ``dn = sqrt(cn^2 + m1 sn^2)``, without the cancellation of ``1 - m sn^2``. (scipy's ``ellipj``
+    computes ``1 - m`` itself and approximates to first order in it below 1e-9: 1.25e-11 off in sn at m1 = 1e-10.)"""
+    u = np.asarray(u, dtype=float)
+    if m1 == 0.0:  # the separatrix: sn = tanh, cn = dn = sech
+        return np.tanh(u), 1.0 / np.cosh(u), 1.0 / np.cosh(u)
+    a, b, c = 1.0, np.sqrt(m1), np.sqrt(m)
+    ratios = []
+    while abs(c) > 1e-17 * a and len(ratios) < 64:
+        a, b, c = 0.5 * (a + b), np.sqrt(a * b), 0.5 * (a - b)
+        ratios.append(c / a)
+    phi = (2.0 ** len(ratios)) * a * u
+    for r in reversed(ratios):
+        phi = 0.5 * (np.arcsin(r * np.sin(phi)) + phi)
+    sn, cn = np.sin(phi), np.cos(phi)
+    return sn, cn, np.sqrt(cn * cn + m1 * sn * sn)
+
+
+def _elliptic_argument(sn: float, cn: float, m1: float) -> float:
+    """``F(phi | m)`` for ``phi = atan2(sn, cn)`` in ``(-pi, pi]`` (``sn^2 + cn^2 = 1``): Carlson's
+    ``s R_F(c^2, d^2, 1)`` (DLMF 19.25.5) with ``d^2 = cn^2 + m1 sn^2``, reflected about ``+-K`` beyond a quarter period."""
+    value = sn * float(elliprf(cn * cn, cn * cn + m1 * sn * sn, 1.0))
+    return value if cn >= 0 else np.sign(sn) * 2 * _complete_k(m1) - value
+
+
+def _pi_of(n, m, m1, tau, *, one_minus_n=None):
+    """``(sn, cn, dn)`` at ``tau`` and Legendre's incomplete integral of the third kind along it,
+    ``Pi(n; am tau | m) = int_0^tau du / (1 - n sn^2 u)`` (n < 1; ``m1 = 1 - m``), continued past the quarter
+    periods (``Pi(n; phi + j pi) = Pi(n; phi) + 2 j Pi(n | m)``): ``tau`` is reduced to ``[-K, K)`` first, where
+    Carlson's symmetric forms give it to a few ulps (DLMF 19.25.14, 19.25.2),
+    ``Pi(n; phi) = s R_F(c^2, d^2, 1) + n/3 s^3 R_J(c^2, d^2, 1, 1 - n s^2)`` with ``s, c, d = sn, cn, dn``.
+    No quadrature: each time is computed on its own, to round-off whatever the grid. ``one_minus_n``: ``1 - n``
+    given accurately (n close to 1); then ``1 - n s^2 = (1 - n) + n c^2``, a sum of terms >= 0."""
+    tau = np.asarray(tau, dtype=float)
+    one_minus_n = 1.0 - n if one_minus_n is None else one_minus_n
+    K = _complete_k(m1)
+    if np.isfinite(K):
+        j = np.floor((tau + K) / (2 * K))
+        tau_r = tau - 2 * K * j
+    else:  # the separatrix (m = 1): no period
+        j, tau_r = np.zeros_like(tau), tau
+    sn, cn, dn = _jacobi(tau_r, m, m1)
+    s2 = sn * sn
+    x, y = cn * cn, dn * dn
+    p = one_minus_n + n * x if n > 0 else 1.0 - n * s2
+    value = sn * elliprf(x, y, 1.0) + (n / 3.0) * sn * s2 * elliprj(x, y, 1.0, p)
+    if np.isfinite(K) and np.any(j):
+        complete = elliprf(0.0, m1, 1.0) + (n / 3.0) * elliprj(0.0, m1, 1.0, one_minus_n)
+        value = value + 2 * j * complete
+        sign = 1.0 - 2.0 * (j % 2)  # sn and cn change sign every half period 2K
+        sn, cn = sign * sn, sign * cn
+    return (sn, cn, dn), value
 
 
 # ------------------------------------------------------------------------------------------------
@@ -198,12 +258,12 @@ def lagrange_why_not(inertia, centre, force) -> str | None:
 
 def symmetric_moments(inertia, axis) -> tuple[float, float] | None:
     """``(A, C)`` when the inertia tensor is ``A (E - e e^T) + C e e^T`` about the direction ``e`` of ``axis`` (an
-    axisymmetric body, to :data:`EQUAL_MOMENTS_RTOL` x 100 of its norm): the transverse and the axial moment."""
+    axisymmetric body, to :data:`SYMMETRY_RTOL` of its norm): the transverse and the axial moment."""
     I = np.asarray(inertia, dtype=float)
     e = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
     C = e @ I @ e
     A = 0.5 * (np.trace(I) - C)
-    if np.linalg.norm(I - A * np.eye(3) - (C - A) * np.outer(e, e)) > EQUAL_MOMENTS_RTOL * 1e2 * np.linalg.norm(I):
+    if np.linalg.norm(I - A * np.eye(3) - (C - A) * np.outer(e, e)) > SYMMETRY_RTOL * np.linalg.norm(I):
         return None
     return float(A), float(C)
 
@@ -286,10 +346,13 @@ def lagrange_top(inertia, q0, omega0, t, *, centre, force):
     In 3-1-3 Euler angles of the top's axis about the upward vertical (precession psi, nutation theta, spin phi),
     ``u = cos theta`` obeys ``u'^2 = (alpha - beta u)(1 - u^2) - (a - b u)^2`` (alpha = 2 E'/A with E' the energy
     less the spin's, beta = 2 m g l / A, a = L_z / A, b = L_3 / A, both momenta conserved), a cubic with roots
-    u1 <= u <= u2 <= 1 <= u3, so ``u = u1 + (u2 - u1) sn^2(lam t + tau0, k)`` with ``lam = sqrt(beta (u3 - u1)) / 2``
-    and ``k^2 = (u2 - u1)/(u3 - u1)``; ``psi' = (a - b u)/(1 - u^2)`` and ``phi' = L_3/C - u psi'`` are integrated by
-    Gauss-Legendre quadrature on panels of at most a quarter of the elliptic argument. Returns ``q`` (n, 4),
-    sign-continuous, and ``omega`` (n, 3), body frame. :class:`ReferenceFailure` when the axis comes within
+    u1 <= u <= u2 <= 1 <= u3 (:func:`_top_roots`: found about ``u0``, where they are well conditioned, a double
+    root at steady precession included), so ``u = u1 + (u2 - u1) sn^2(lam t + tau0, k)`` with
+    ``lam = sqrt(beta (u3 - u1)) / 2`` and ``k^2 = (u2 - u1)/(u3 - u1)``. The precession ``psi' = (a - b u)/(1 - u^2)``
+    and the spin ``phi' = L_3/C - u psi'`` are, by partial fractions, ``psi' = (a - b)/(2 (1 - u)) + (a + b)/(2 (1 + u))``
+    and ``phi' = L_3/C - b - (a - b)/(2 (1 - u)) + (a + b)/(2 (1 + u))``, whose integrals are Legendre's third
+    integrals (:func:`_pi_of`): closed forms at every time, no quadrature. Returns ``q`` (n, 4), sign-continuous,
+    and ``omega`` (n, 3), body frame. :class:`ReferenceFailure` when the axis comes within
     :data:`LAGRANGE_MIN_SIN2` of the vertical."""
     I, q0, omega0, t = _inputs(inertia, q0, omega0, t)
     why = lagrange_why_not(I, centre, force)
@@ -307,77 +370,139 @@ def lagrange_top(inertia, q0, omega0, t, *, centre, force):
     psi0, theta0, phi0 = rot.quat_to_euler(qT, "313", warn=False)
     R = rot.quat_to_dcm(qT)
     u0 = float(np.clip(R[2, 2], -1.0, 1.0))
+    one_minus_u0 = 2.0 * (qT[1] ** 2 + qT[2] ** 2)  # 1 - cos theta0 = 2 sin^2(theta0/2), without cancellation
+    one_plus_u0 = 2.0 * (qT[0] ** 2 + qT[3] ** 2)
     Mgl = float(np.linalg.norm(F) * np.linalg.norm(c))
-    L3 = C * wT[2]
-    Lz = float((R @ (np.array([A, A, C]) * wT))[2])
-    alpha = (A * (wT[0] ** 2 + wT[1] ** 2) + 2 * Mgl * u0) / A
-    beta, a, b = 2 * Mgl / A, Lz / A, L3 / A
-
-    def f(u):
-        return (alpha - beta * u) * (1 - u * u) - (a - b * u) ** 2
-
-    u1, u2, u3 = _top_roots(f, beta, alpha, a, b, u0)
-    if 1 - max(abs(u1), abs(u2)) ** 2 < LAGRANGE_MIN_SIN2:
-        raise ReferenceFailure(f"the exact heavy-top reference: the axis comes within {np.degrees(np.arccos(min(1.0, max(abs(u1), abs(u2))))):.3g} "
-                               f"deg of the vertical, where its precession rate loses digits; use 'dop853'")
-    lam = 0.5 * np.sqrt(beta * (u3 - u1))
-    m = (u2 - u1) / (u3 - u1) if u3 > u1 else 0.0
-    span = u2 - u1
-    if span > 1e-14:
-        s0 = np.sqrt(np.clip((u0 - u1) / span, 0.0, 1.0))
-        tau0 = float(ellipkinc(np.arcsin(s0), m))
-        theta_dot0 = wT[0] * np.cos(phi0) - wT[1] * np.sin(phi0)  # from the 3-1-3 rates
+    beta, b = 2 * Mgl / A, C * wT[2] / A
+    P = R[2, 0] * wT[0] + R[2, 1] * wT[1]  # a - b u0 = psi0' sin^2 theta0 (L_z - L_3 u0 over A, the spin's part cancelled)
+    theta_dot0 = wT[0] * np.cos(phi0) - wT[1] * np.sin(phi0)  # from the 3-1-3 rates
+    near = min(one_minus_u0, one_plus_u0)  # the start's distance from the nearer vertical, 1 -+ cos theta0
+    if near * (2 - near) >= LAGRANGE_MIN_SIN2:
+        roots = _top_roots(beta, theta_dot0, P, b, one_minus_u0, one_plus_u0)
+        near = min(roots.y1, roots.z2)
+    a_minus_b, a_plus_b = P - b * one_minus_u0, P + b * one_plus_u0
+    if near * (2 - near) < LAGRANGE_MIN_SIN2:
+        nearest = near
+        raise ReferenceFailure(f"the exact heavy-top reference: the axis comes within "
+                               f"{np.degrees(2 * np.arcsin(np.sqrt(nearest / 2))):.3g} deg of the vertical, where "
+                               "its precession rate loses digits; use 'dop853'")
+    x1, x2, x3 = roots.x1, roots.x2, roots.x3
+    span = x2 - x1
+    lam = 0.5 * np.sqrt(beta * (x3 - x1))
+    m, m1 = span / (x3 - x1), (x3 - x2) / (x3 - x1)
+    if span > 0:  # sn^2(tau0) = (u0 - u1) / (u2 - u1), cn^2(tau0) = (u2 - u0) / (u2 - u1)
+        tau0 = _elliptic_argument(np.sqrt(-x1 / span), np.sqrt(x2 / span), m1)
         if theta_dot0 > 0:  # u = cos theta falling: the elliptic argument runs the other way from u0
             tau0 = -tau0
     else:  # steady precession: no nutation
-        tau0, span = 0.0, 0.0
+        tau0 = 0.0
+    # 1 - u = (1 - u1)(1 - n_minus sn^2) = (1 - u2) + span cn^2 and 1 + u = (1 + u1)(1 - n_plus sn^2), each side a sum
+    # of terms >= 0: accurate however close the axis comes to either vertical
+    one_minus_u1, one_plus_u1 = one_minus_u0 - x1, roots.y1
+    n_minus, n_plus = span / one_minus_u1, -span / one_plus_u1
 
-    def u_of(tt):
-        sn, cn, dn, _ = ellipj(lam * tt + tau0, m)
-        return u1 + span * sn * sn, 2 * span * lam * sn * cn * dn
+    def integrals(tt):
+        """sn, cn, dn at ``tt`` and the integrals from 0 of 1/(1 - u) and 1/(1 + u)."""
+        tau = lam * tt + tau0
+        (sn, cn, dn), pm = _pi_of(n_minus, m, m1, tau, one_minus_n=roots.z2 / one_minus_u1)
+        _, pp = _pi_of(n_plus, m, m1, tau)
+        _, pm0 = _pi_of(n_minus, m, m1, np.array([tau0]), one_minus_n=roots.z2 / one_minus_u1)
+        _, pp0 = _pi_of(n_plus, m, m1, np.array([tau0]))
+        return sn, cn, dn, (pm - pm0[0]) / (one_minus_u1 * lam), (pp - pp0[0]) / (one_plus_u1 * lam)
 
-    def psi_dot(tt):
-        u = u_of(tt)[0]
-        return (a - b * u) / (1 - u * u)
-
-    def phi_dot(tt):
-        return L3 / C - u_of(tt)[0] * psi_dot(tt)
-
-    panel = _PANEL_TAU / lam if lam > 0 else np.inf
-    panel = min(panel, 0.05 * 2 * np.pi / max(abs(a) + abs(b) + abs(L3 / C), 1e-300))  # the spin's own turns
-    psi = psi0 + _cumulative_quadrature(psi_dot, t, panel)
-    phi = phi0 + _cumulative_quadrature(phi_dot, t, panel)
-    u, u_dot = u_of(t)
-    theta = np.arctan2(np.sqrt(np.maximum(0.0, 1 - u * u)), u)
-    rates = np.stack([(a - b * u) / (1 - u * u), -u_dot / np.sin(theta), L3 / C - u * (a - b * u) / (1 - u * u)],
-                     axis=-1)
+    sn, cn, dn, i_minus, i_plus = integrals(t)
+    psi = psi0 + 0.5 * a_minus_b * i_minus + 0.5 * a_plus_b * i_plus
+    phi = phi0 + (wT[2] - b) * t - 0.5 * a_minus_b * i_minus + 0.5 * a_plus_b * i_plus
+    u_dot = 2 * span * lam * sn * cn * dn
+    one_minus_u, one_plus_u = roots.z2 + span * cn * cn, roots.y1 + span * sn * sn
+    u = 0.5 * (one_plus_u - one_minus_u)
+    sin_theta = np.sqrt(one_minus_u * one_plus_u)
+    theta = np.arctan2(sin_theta, u)
+    psi_dot = 0.5 * a_minus_b / one_minus_u + 0.5 * a_plus_b / one_plus_u
+    rates = np.stack([psi_dot, -u_dot / sin_theta, wT[2] - u * psi_dot], axis=-1)
     angles = np.stack([psi, theta, phi], axis=-1)
     q = rot.quat_mul(rot.quat_mul(qG, rot.euler_to_quat(angles, "313")), rot.quat_conj(qB))
     omega = rot.euler_rates_to_omega(angles, rates, "313") @ B.T
     return continuous_quaternions(q), omega
 
 
-def _top_roots(f, beta, alpha, a, b, u0):
-    """The cubic's roots u1 <= u0 <= u2 <= 1 <= u3: f(-1) and f(1) are -(a -+ b)^2 <= 0, f(u0) = u'^2 >= 0 and f
-    grows without bound (beta > 0), so its three roots, in order, are these (a double root where the nutation
-    vanishes: a complex pair there, by a hair); each polished by Newton's method on f."""
-    def fp(u):
-        return -beta * (1 - u * u) - 2 * u * (alpha - beta * u) + 2 * b * (a - b * u)
+@dataclass(frozen=True)
+class _TopRoots:
+    """The cubic's roots about the top's start ``u0``: ``x1 = u1 - u0 <= 0 <= x2 = u2 - u0`` (the turning points of
+    ``u = cos theta``), ``x3 = u3 - u0 >= 1 - u0``, and the turning points' distances from the verticals, ``y1 = 1 + u1``
+    and ``z2 = 1 - u2``, each found as a root of its own (``1 + u0 + x1`` would lose the digits of a top hanging
+    nearly straight down, ``1 - u0 - x2`` those of one nearly asleep)."""
 
-    def polish(u):
-        for _ in range(8):
-            d = fp(u)
-            if d == 0 or f(u) == 0:
-                break
-            step = f(u) / d
-            u -= step
-            if abs(step) <= 1e-17:
-                break
-        return u
+    x1: float
+    x2: float
+    x3: float
+    y1: float
+    z2: float
 
-    u1, u2, u3 = np.sort(np.roots([beta, -(alpha + b * b), 2 * a * b - beta, alpha - a * a]).real)
-    u1, u2 = min(polish(u1), u0), max(polish(u2), u0)
-    return u1, u2, max(polish(u3), 1.0)
+
+def _top_roots(beta, theta_dot0, P, b, one_minus_u0, one_plus_u0) -> _TopRoots:
+    """The roots of ``f(u) = (alpha - beta u)(1 - u^2) - (a - b u)^2`` (:func:`lagrange_top`) from the top's state:
+    ``theta_dot0``, ``P = a - b u0 = psi0' sin^2 theta0``, ``b = L_3 / A`` and ``1 -+ u0``. Its coefficients are
+    formed in exact rational arithmetic from these (the transverse rate squared ``alpha - beta u0`` is
+    ``theta0'^2 + P^2 / sin^2 theta0``, so ``f(u0) = (sin theta0 theta0')^2 >= 0`` exactly) and written about ``u0``,
+    ``-1`` and ``+1`` (Taylor shifts, exact too): each root is then bracketed where its polynomial is accurate, by
+    Brent's method, to the last bits of its own size, a near-double root (near steady precession: ``x1`` and ``x2``
+    both close to 0) included, since ``f``'s error about ``u0`` is proportional to ``x``. Started at a turning point
+    (``theta0' = 0``), 0 is a root and the other comes from the quadratic left once it is divided out; ``x3`` from the
+    roots' sum."""
+    from scipy.optimize import brentq
+
+    Fr = Fraction
+    sm, sp = Fr(float(one_minus_u0)), Fr(float(one_plus_u0))
+    sm, sp = 2 * sm / (sm + sp), 2 * sp / (sm + sp)  # 1 - u0 and 1 + u0 of one u0: (1 - u0)(1 + u0) = sin^2 theta0
+    u0 = (sp - sm) / 2
+    beta_, P_, b_, td = Fr(float(beta)), Fr(float(P)), Fr(float(b)), Fr(float(theta_dot0))
+    s0 = sm * sp  # sin^2 theta0
+    W = td * td + P_ * P_ / s0
+    alpha, a = W + beta_ * u0, P_ + b_ * u0
+    # f(u) = (alpha - beta u)(1 - u^2) - (a - b u)^2, ascending coefficients
+    poly = [alpha - a * a, -beta_ + 2 * a * b_, -alpha - b_ * b_, beta_]
+
+    def about(c):  # the coefficients of f(c + x), as floats
+        p0 = ((poly[3] * c + poly[2]) * c + poly[1]) * c + poly[0]
+        p1 = (3 * poly[3] * c + 2 * poly[2]) * c + poly[1]
+        p2 = 3 * poly[3] * c + poly[2]
+        return [float(p0), float(p1), float(p2), float(poly[3])]
+
+    def root(coef, lo, hi):
+        def f(x):
+            return coef[0] + x * (coef[1] + x * (coef[2] + coef[3] * x))
+        flo, fhi = f(lo), f(hi)
+        if flo == 0 or fhi == 0 or (flo > 0) == (fhi > 0):
+            return lo if abs(flo) <= abs(fhi) else hi
+        return brentq(f, lo, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=2000)
+
+    c = about(u0)  # c[0] = (sin theta0 theta0')^2 >= 0
+    lo, hi = -float(sp), float(sm)
+    if c[0] == 0.0:  # at a turning point: x = 0 is a root, the others those of beta x^2 + c2 x + c1 (their product c1 /
+        # beta): both > 0 when c1 > 0 (u0 is u1: x2 and x3), of either sign when c1 < 0 (u0 is u2: x1 and x3)
+        disc = np.sqrt(max(c[2] * c[2] - 4 * c[3] * c[1], 0.0))
+        qq = -0.5 * (c[2] + np.copysign(disc, c[2]))
+        r = sorted((qq / c[3], c[1] / qq)) if qq != 0 else [0.0, 0.0]
+        if c[1] > 0:
+            x1, x2 = 0.0, float(np.clip(r[0], 0.0, hi))
+        elif c[1] < 0:
+            x1, x2 = float(np.clip(r[0], lo, 0.0)), 0.0
+        else:  # steady precession: a double root
+            x1 = x2 = 0.0
+    else:
+        x1, x2 = root(c, lo, 0.0), root(c, 0.0, hi)
+    x3 = max(-c[2] / c[3] - x1 - x2, hi)
+    # 1 + u1 = (1 + u0) + x1 loses digits only where u1 is nearer -1 than u0: there it is the root of f(-1 + y)
+    # between 0 (f(-1) = -(a + b)^2 <= 0) and halfway from u1 to u0 (f > 0 there, between the turning points),
+    # whose polynomial is accurate for small y; 1 - u2 likewise from +1
+    y1, z2 = float(sp) + x1, float(sm) - x2
+    if y1 < 0.5 * float(sp):
+        y1 = root(about(Fr(-1)), 0.0, float(sp) + 0.5 * x1)
+    if z2 < 0.5 * float(sm):
+        top = about(Fr(1))
+        z2 = root([top[0], -top[1], top[2], -top[3]], 0.0, float(sm) - 0.5 * x2)
+    return _TopRoots(x1, x2, x3, y1, z2)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -499,3 +624,174 @@ def elliptic_period(inertia, omega0) -> float:
     lam = np.sqrt(abs((J3 - J2) * (h2 - E2 * J1) / (J1 * J2 * J3)))
     m = abs((J2 - J1) * (E2 * J3 - h2) / ((J3 - J2) * (h2 - E2 * J1)))
     return float(4 * ellipk(m) / lam) if lam > 0 else float("inf")
+
+
+# ------------------------------------------------------------------------------------------------
+# the guard: an exact reference checked before it judges (issue 36)
+# ------------------------------------------------------------------------------------------------
+#: An exact reference farther than this [rad] from its independent check is not used (unless the check itself is
+#: less certain than that: :data:`CONDITIONING_ULPS`).
+GUARD_BOUND = 1e-11
+#: The check compares the closed form with the compiled DOP853 at this many times of the study's own grids.
+GUARD_POINTS = 16
+#: The compiled DOP853 of the check: rtol (scipy's smallest, 100 eps) and atol; a second run at SPREAD_RTOL, whose
+#: difference from the first estimates the first's own error where they disagree.
+GUARD_RTOL, GUARD_ATOL = 2.5e-14, 2.5e-16
+SPREAD_RTOL, SPREAD_ATOL = 1e-13, 1e-15
+#: Where the two disagree by more than GUARD_BOUND, the motion's conditioning is measured too: how far a relative
+#: change of CONDITIONING_STEP in each principal moment (relative to the tensor's norm: a turned tensor's moments are
+#: known to a few ulps of it) and in each component of the body rate moves it, per unit change. Times machine epsilon,
+#: that is what the last bit of the body and its state is worth; no double-precision computation of this motion is
+#: more certain than CONDITIONING_ULPS of it (measured on the delicate families of tests/families.py: the closed form
+#: and DOP853 differ by at most 30 of it, thin bodies and near-separatrix ones; mpmath at 25 digits showed which
+#: was right).
+CONDITIONING_STEP = 1e-8
+CONDITIONING_ULPS = 64
+#: The guard's DOP853 takes at most this many steps (a fallback keeps its dense output: 456 bytes a step).
+GUARD_MAX_STEPS = 200_000
+
+
+@dataclass
+class ReferenceCheck:
+    """What the guard found: the closed form (``kind``) against the compiled DOP853 at ``times`` times of the study's
+    grids. ``difference`` the largest attitude difference [rad] (at ``at_time`` [s]); ``uncertainty`` the check's
+    own (DOP853's spread between two tolerances, and the motion's conditioning in ulps: measured only where they
+    disagree by more than :data:`GUARD_BOUND`; 0 where not measured); ``conditioning`` [rad] what the last bit of the
+    body and its state is worth (None: not measured); ``bound`` = max(GUARD_BOUND, uncertainty); ``passed``: the
+    closed form is used. Otherwise ``why`` says why not, and ``solution`` (the compiled DOP853's dense output) is the
+    reference the study uses instead."""
+
+    kind: str
+    times: int
+    difference: float
+    at_time: float
+    bound: float
+    passed: bool
+    uncertainty: float = 0.0
+    conditioning: float | None = None
+    why: str = ""
+    solution: object = None
+
+    def to_json(self) -> dict:
+        return {"kind": self.kind, "against": f"DOP853 (compiled) at rtol {GUARD_RTOL:g}", "times": self.times,
+                "max_attitude_difference": _json(self.difference), "at_time": self.at_time, "bound": self.bound,
+                "uncertainty": self.uncertainty, "conditioning": self.conditioning, "passed": self.passed,
+                "used": "exact" if self.passed else "dop853", **({"why": self.why} if self.why else {})}
+
+    def describe(self) -> str:
+        """The check in a sentence (the report's and the terminal's)."""
+        against = f"DOP853 (compiled, rtol {GUARD_RTOL:g}) at {self.times} times of the study's grids"
+        if self.passed:
+            text = f"the {self.kind}, checked against {against}: they agree to {self.difference:.1e} rad (bound {self.bound:.0e})"
+            if self.uncertainty > GUARD_BOUND:
+                text += (f"; this motion is sensitive (its last bit is worth {self.conditioning:.1e} rad): no reference "
+                         f"in double precision is certain below {self.uncertainty:.1e} rad")
+            return text
+        return f"the {self.kind} was not used: {self.why}; the study's reference is {against.split(' at ')[0]}"
+
+
+def _json(v):
+    return float(v) if np.isfinite(v) else None
+
+
+def exact_kind(torque) -> str:
+    """Which closed form :func:`exact_reference` uses for ``torque``, in words."""
+    if torque is None:
+        return "torque-free closed form"
+    return "axisymmetric gyrostat's closed form" if getattr(torque, "conserves_momentum", False) else \
+        "heavy top's closed form (Lagrange's)"
+
+
+def guard_times(duration: float, grids=(), points: int = GUARD_POINTS) -> np.ndarray:
+    """About ``points`` times [s] for the guard: the final time (where the final errors are measured) and times spread
+    evenly over the points of the study's ``grids`` (steps [s]: each grid ``0, dt, 2 dt, ...``, its last point the
+    duration), the coarsest first; without grids, evenly over the duration."""
+    duration = float(duration)
+    picks = [duration]
+    for dt in sorted((float(g) for g in grids if 0 < g <= duration), reverse=True)[:3]:
+        n = int(np.floor(duration / dt + 1e-9))
+        k = np.unique(np.linspace(1, n, max(1, points // 3)).round().astype(int))
+        picks += list(np.minimum(k * dt, duration))
+    if len(picks) < points:
+        picks += list(np.linspace(0, duration, points - len(picks) + 2)[1:-1])
+    return np.unique(np.asarray(picks, dtype=float))
+
+
+def check_exact(inertia, q0, omega0, duration: float, torque=None, times=None) -> ReferenceCheck:
+    """The guard (issue 36): the exact reference of this body and torque (:func:`exact_reference`) at ``times``
+    (default :func:`guard_times`) against the compiled DOP853 (:func:`xcheck.integrators.dop853.dop853_dense`),
+    an independent integration of the same equations. Within :data:`GUARD_BOUND`, or within the check's own
+    uncertainty where that is larger (DOP853's error, estimated from a second run, or the motion's conditioning:
+    see :data:`CONDITIONING_ULPS`), the closed form is used; else, or where it cannot be computed, the study
+    falls back to the DOP853 run, saying why (:class:`ReferenceCheck`)."""
+    from .integrators.dop853 import dop853_at, dop853_dense
+
+    I, q0, omega0, _ = _inputs(inertia, q0, omega0, [0.0])
+    times = guard_times(duration) if times is None else np.unique(np.asarray(times, dtype=float))
+    kind = exact_kind(torque)
+
+    def run(rtol, atol, inertia_=I, omega_=omega0):
+        return dop853_at(inertia_, q0, omega_, duration, times, torque=torque, rtol=rtol, atol=atol,
+                         max_steps=GUARD_MAX_STEPS)[0]
+
+    def fallback(why, **found):
+        try:
+            solution = dop853_dense(I, q0, omega0, duration, torque=torque, rtol=GUARD_RTOL, atol=GUARD_ATOL,
+                                    max_steps=GUARD_MAX_STEPS)
+        except RuntimeError as exc:
+            raise ReferenceFailure(f"the {kind} was not used ({why}), and DOP853 could not stand in: {exc}") from None
+        return ReferenceCheck(kind, len(times), bound=found.pop("bound", GUARD_BOUND), passed=False, why=why,
+                              solution=solution, **found)
+
+    turned = float(np.linalg.norm(omega0)) * float(duration)
+    if _DOP853_STEPS_PER_RAD * turned > GUARD_MAX_STEPS:
+        raise ReferenceFailure(f"the independent check of the {kind} (DOP853) could not be run: it would need about "
+                               f"{_DOP853_STEPS_PER_RAD * turned:.3g} steps for |omega0| T = {turned:.3g} rad (its budget: "
+                               f"{GUARD_MAX_STEPS} steps); shorten the duration or lower the rates")
+    try:
+        q_check = run(GUARD_RTOL, GUARD_ATOL)
+    except RuntimeError as exc:
+        raise ReferenceFailure(f"the independent check of the {kind} (DOP853) could not be run: {exc}") from None
+    try:
+        q_exact, _ = exact_reference(I, q0, omega0, times, torque)
+    except ReferenceFailure as exc:
+        return fallback(str(exc), difference=np.inf, at_time=0.0)
+    errors = rot.attitude_error(q_exact, q_check)
+    errors = np.where(np.isfinite(errors), errors, np.inf)
+    worst = int(np.argmax(errors))
+    difference, at_time = float(errors[worst]), float(times[worst])
+    if difference <= GUARD_BOUND:
+        return ReferenceCheck(kind, len(times), difference, at_time, GUARD_BOUND, True)
+    spread = float(np.max(rot.attitude_error(q_check, run(SPREAD_RTOL, SPREAD_ATOL))))
+    conditioning = np.finfo(float).eps * _sensitivity(run, I, omega0)
+    uncertainty = max(spread, CONDITIONING_ULPS * conditioning)
+    bound = max(GUARD_BOUND, uncertainty)
+    found = dict(difference=difference, at_time=at_time, bound=bound, uncertainty=uncertainty, conditioning=conditioning)
+    if difference <= bound:
+        return ReferenceCheck(kind, len(times), passed=True, **found)
+    return fallback(f"it is {difference:.2g} rad from DOP853 at t = {at_time:.6g} s, beyond the bound {bound:.1e} rad "
+                    "(the check's own uncertainty included)", **found)
+
+
+def _sensitivity(run, inertia, omega0) -> float:
+    """The largest change of the attitude [rad] over ``times`` per unit relative change of a principal moment (relative
+    to the tensor's norm) or a body-rate component (relative to its norm): DOP853 runs at rtol 1e-12 with each
+    perturbed by :data:`CONDITIONING_STEP` (smaller where the change leaves the linear range)."""
+    moments, V = principal_axes(inertia)
+    scale_I, scale_w = float(np.linalg.norm(inertia)), max(float(np.linalg.norm(omega0)), 1e-300)
+    base = run(1e-12, 1e-14)
+    worst = 0.0
+    for i in range(6):
+        step = CONDITIONING_STEP
+        for _ in range(3):
+            axis = V[:, i % 3]
+            if i < 3:
+                q = run(1e-12, 1e-14, inertia_=inertia + step * scale_I * np.outer(axis, axis))
+            else:
+                q = run(1e-12, 1e-14, omega_=omega0 + step * scale_w * axis)
+            change = float(np.max(rot.attitude_error(q, base)))
+            if change < 1e-3:  # still linear
+                break
+            step *= 1e-4 / change
+        worst = max(worst, change / step)
+    return worst
