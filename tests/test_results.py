@@ -28,7 +28,10 @@ def test_method_status_and_finest():
 def test_check_name_and_json():
     c = Check("order", True, "lie-rkmk4", 3.99, 4, "median")
     assert c.name == "order:lie-rkmk4" and Check("reference", False).name == "reference"
-    assert c.to_json() == {"name": "order:lie-rkmk4", "passed": True, "value": 3.99, "limit": 4.0, "note": "median"}
+    assert c.to_json() == {"name": "order:lie-rkmk4", "passed": True, "status": "pass", "value": 3.99, "limit": 4.0,
+                           "note": "median"}
+    undecided = Check("order", False, "mujoco-euler", None, 1, "pre-asymptotic", inconclusive=True)
+    assert undecided.status == "inconclusive" and not undecided.failed and undecided.to_json()["passed"] is False
     assert json_number(float("nan")) is None and json_number(float("inf")) is None and json_number(2) == 2.0
 
 

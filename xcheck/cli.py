@@ -25,6 +25,11 @@ from . import __version__
 _STARTED = time.perf_counter()  # when the command line was imported: the baseline of --timings
 
 EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_BUG, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 3, 130, 143
+#: A study that cannot decide (issue 36): its steps show no asymptotic range, its reference is suspect or less
+#: certain than a check, or it tests nothing; and no check failed.
+EXIT_INCONCLUSIVE = 4
+#: The exit code of each outcome (xcheck.results.OUTCOMES).
+EXIT_OF = {"PASSED": EXIT_OK, "FAILED": EXIT_CHECK_FAILED, "INCONCLUSIVE": EXIT_INCONCLUSIVE}
 #: The formats ``run --plot`` writes, by file ending.
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 
@@ -171,7 +176,11 @@ def _cmd_list(args) -> int:
 
 
 def _print_study(st) -> None:
-    print(f"\n{st.name}: {'PASSED' if st.passed else 'FAILED'} (reference: {st.scenario.reference})")
+    from .study.checks import check_summary
+
+    print(f"\n{st.name}: {st.outcome} (reference: {st.reference_used})")
+    if st.reference_check:
+        print(f"  reference: {st.reference_check['text']}")
     print(f"  {'method':22s} {'expected':>8s} {'observed':>8s} {'finest error':>13s}  status")
     for name, m in st.methods.items():
         obs = f"{m.observed_order:.2f}" if m.observed_order is not None else "—"
@@ -180,7 +189,11 @@ def _print_study(st) -> None:
         print(f"  {name:22s} {exp!s:>8s} {obs:>8s} {err_text:>13s}  {m.status_text}")
     for c in st.checks:
         if not c.passed:
-            print(f"  FAILED {c.name}: {c.note}")
+            summary = check_summary(c, st.scenario.checks)
+            detail = f"; {c.note}" if c.note and c.note != summary else ""
+            print(f"  {'INCONCLUSIVE' if c.inconclusive else 'FAILED'} {c.name}: {summary}{detail}")
+    for why in st.inconclusive:
+        print(f"  INCONCLUSIVE: {why}")
 
 
 def _clock_note(runner, dt: float, flag: str) -> str | None:
@@ -251,7 +264,7 @@ def _converge(args, pool) -> int:
         files = scenario_figures(st.data, st.series, args.out)
         print(f"  figures: {', '.join(str(Path(args.out) / f) for f, _ in files)}")
     print(f"wall time {time.perf_counter() - t0:.1f} s")
-    return EXIT_OK if st.passed else EXIT_CHECK_FAILED
+    return EXIT_OF[st.outcome]
 
 
 def _cmd_run(args) -> int:
@@ -317,9 +330,8 @@ def _cmd_report(args) -> int:
         print(outcome.timings(), file=sys.stderr)
     for st in outcome.studies:
         _print_study(st)
-    print(f"\nreport: {outcome.folder}/index.html ({'PASSED' if outcome.passed else 'FAILED'}); wall time "
-          f"{time.perf_counter() - t0:.1f} s")
-    return EXIT_OK if outcome.passed else EXIT_CHECK_FAILED
+    print(f"\nreport: {outcome.folder}/index.html ({outcome.outcome}); wall time {time.perf_counter() - t0:.1f} s")
+    return EXIT_OF[outcome.outcome]
 
 
 def _cmd_nightly(args) -> int:
@@ -366,7 +378,7 @@ def _cmd_nightly(args) -> int:
         print(f"--keep {args.keep}: removed {n} older report folder{'s' * (n > 1)}")
     print(f"\nnightly: run {outcome.run_id} recorded in {nightly.H.display(location)}; report "
           f"{outcome.report.folder}/index.html ({outcome.verdict()}); wall time {outcome.wall_time:.1f} s")
-    return EXIT_OK if outcome.passed else EXIT_CHECK_FAILED
+    return EXIT_CHECK_FAILED if outcome.regressions else EXIT_OF[outcome.report.outcome]
 
 
 def _cmd_bench(args) -> int:
@@ -640,8 +652,13 @@ def _cmd_sweep(args) -> int:
               f"{1e3 * t['reference']:.1f} ms, compute {1e3 * t['compute']:.1f} ms")
     if out.reused:
         print(f"{out.reused} cells from the earlier run (--resume)")
-    print(f"sweep: {out.folder}/index.html; {passed} of {n} cells passed every check")
-    return EXIT_OK if passed == n else EXIT_CHECK_FAILED
+    from .results import outcome_of
+
+    outcome = outcome_of(r.get("outcome") or ("PASSED" if r["passed"] else "FAILED") for r in out.records)
+    undecided = sum(r.get("outcome") == "INCONCLUSIVE" for r in out.records)
+    print(f"sweep: {out.folder}/index.html; {passed} of {n} cells passed every check"
+          + (f", {undecided} inconclusive" if undecided else ""))
+    return EXIT_OF[outcome]
 
 
 def _cmd_init(args) -> int:

@@ -5,8 +5,13 @@ method, passed, value, limit, note). The JSON of schema ``xcheck.convergence/1``
 (``to_json``), with every key it has always had; ``verdict`` is new.
 
 Verdicts: ``pass`` every check of the method passed; ``fail`` one failed (or the study's reference could not
-be computed); ``expected`` the failure the scenario declares (``expected_to_fail``) happened; ``info`` the
-method has no checks (reported only).
+be computed); ``expected`` the failure the scenario declares (``expected_to_fail``) happened; ``inconclusive``
+a check could not decide (its steps show no asymptotic range, its reference is suspect or less certain than its
+limit) and none failed; ``info`` the method has no checks (reported only).
+
+A study's outcome (:data:`OUTCOMES`, issue 36): ``FAILED`` when a check failed (a method disagrees with a
+reference that is itself verified); else ``INCONCLUSIVE`` when a check could not decide or the study tests nothing
+(a vacuous study: every method exact); else ``PASSED``. Exit codes 0, 1 and 4.
 """
 
 from __future__ import annotations
@@ -14,9 +19,22 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields
 
-__all__ = ["Run", "MethodRuns", "Check", "MethodResult", "json_number", "VERDICTS"]
+__all__ = ["Run", "MethodRuns", "Check", "MethodResult", "json_number", "VERDICTS", "OUTCOMES", "outcome_of",
+           "outcome_value"]
 
-VERDICTS = ("pass", "fail", "expected", "info")
+VERDICTS = ("pass", "fail", "expected", "inconclusive", "info")
+OUTCOMES = ("PASSED", "FAILED", "INCONCLUSIVE")
+
+
+def outcome_of(outcomes) -> str:
+    """The outcome of several (studies, sections): FAILED if any failed, else INCONCLUSIVE if any was, else PASSED."""
+    outcomes = list(outcomes)
+    return "FAILED" if "FAILED" in outcomes else "INCONCLUSIVE" if "INCONCLUSIVE" in outcomes else "PASSED"
+
+
+def outcome_value(outcome: str) -> float:
+    """An outcome as a number (the history's): 1 passed, 0.5 inconclusive, 0 failed."""
+    return {"PASSED": 1.0, "INCONCLUSIVE": 0.5, "FAILED": 0.0}[outcome]
 
 
 def json_number(v):
@@ -83,8 +101,9 @@ class MethodRuns:
     """One method's runs in one scenario as a worker measured them, what :func:`xcheck.study.assemble` takes (a
     study's worker and a sweep's chunk both make them): the runs (coarse to fine, or loose to tight
     tolerances), the finest good run sampled for the figures (``series``; None where none is drawn), the direct
-    comparisons with its partner, why nothing could be measured (``reference_error``), and whether a sweep ran
-    it batched."""
+    comparisons with its partner, why nothing could be measured (``reference_error``), what the guard of an exact
+    reference found (``reference_check``: :meth:`xcheck.reference.ReferenceCheck.to_json` and its sentence), and
+    whether a sweep ran it batched."""
 
     method: str
     runs: list
@@ -92,6 +111,7 @@ class MethodRuns:
     comparisons: list = field(default_factory=list)
     reference_error: str | None = None
     batched: bool = False
+    reference_check: dict | None = None
 
     @classmethod
     def without_reference(cls, method: str, settings, reason: str) -> "MethodRuns":
@@ -103,7 +123,8 @@ class MethodRuns:
 @dataclass
 class Check:
     """One check of a study: ``kind`` (order, final-error, invariants, runs, agreement, expected-failure,
-    reference), the ``method`` it is about (None for the study as a whole), and what it measured."""
+    reference), the ``method`` it is about (None for the study as a whole), and what it measured. ``inconclusive``:
+    it could not decide (not passed, not failed); ``note`` says why and what would decide it."""
 
     kind: str
     passed: bool
@@ -111,13 +132,23 @@ class Check:
     value: float | None = None
     limit: float | None = None
     note: str = ""
+    inconclusive: bool = False
 
     @property
     def name(self) -> str:
         return f"{self.kind}:{self.method}" if self.method else self.kind
 
+    @property
+    def status(self) -> str:
+        """``pass``, ``fail`` or ``inconclusive``."""
+        return "pass" if self.passed else "inconclusive" if self.inconclusive else "fail"
+
+    @property
+    def failed(self) -> bool:
+        return not self.passed and not self.inconclusive
+
     def to_json(self) -> dict:
-        return {"name": self.name, "passed": bool(self.passed), "value": json_number(self.value),
+        return {"name": self.name, "passed": bool(self.passed), "status": self.status, "value": json_number(self.value),
                 "limit": json_number(self.limit), "note": self.note}
 
 

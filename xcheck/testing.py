@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 
 __all__ = ["assert_converges", "assert_matches_reference", "assert_agrees", "assert_invariants",
-           "XcheckAssertionError", "check_message"]
+           "XcheckAssertionError", "check_message", "check_outcome"]
 
 
 class XcheckAssertionError(AssertionError):
@@ -73,24 +73,33 @@ def check_message(study, method: str, kind: str) -> str | None:
     check = found[0]
     if check.passed:
         return None
-    cfg = sc.checks
-    if kind == "order":
-        m = study.methods[method]
-        limit = (f"expected {m.expected_order} (allowed {m.expected_order - cfg['order_tolerance']:.2f} … "
-                 f"{m.expected_order + cfg['order_excess']:.2f})")
-        measured = f"observed order {_num(check.value)}"
-    elif kind == "runs":
-        limit, measured = "its finest run must complete", check.note
+    from .study.checks import check_summary
+
+    if kind == "runs":
+        measured = f"its finest run must complete: {check.note}"
     elif kind == "expected-failure":
-        limit, measured = "expected to fail (the scenario's [checks] expected_to_fail)", check.note
+        measured = f"expected to fail (the scenario's [checks] expected_to_fail): {check.note}"
     else:
-        what = {"final-error": "attitude error at the finest step [rad]", "invariants":
-                "energy / momentum drift at the finest step", "agreement": "worse of the two errors [rad]"}[kind]
-        limit, measured = f"limit {_num(check.limit)}", f"{what} {_num(check.value)}"
-    return (f"{sc.name}: {method} {kind} FAILED: {measured}; {limit}\n"
-            f"  steps {_steps_text(study.steps)}, {sc.reference} reference, {sc.duration:g} s"
-            + (f"; {check.note}" if check.note and kind not in ("runs", "expected-failure") else "") + "\n"
+        measured = check_summary(check, sc.checks)
+    word = "INCONCLUSIVE" if check.inconclusive else "FAILED"
+    return (f"{sc.name}: {method} {kind} {word}: {measured}\n"
+            f"  steps {_steps_text(study.steps)}, {study.reference_used} reference, {sc.duration:g} s"
+            + (f"; {check.note}" if check.note and kind not in ("runs", "expected-failure") and check.note != measured
+               else "") + "\n"
             f"  {method_line(study, method)}")
+
+
+def check_outcome(study, method: str, kind: str) -> tuple[str, str | None]:
+    """``(status, message)`` of a check for a test item: ``pass`` (no message), ``fail`` or ``inconclusive`` (the
+    :func:`check_message`); a study that cannot decide at all (vacuous, a suspect reference: ``study.inconclusive``)
+    makes its passing checks inconclusive too, saying why."""
+    message = check_message(study, method, kind)
+    found = [c for c in study.checks if c.method == method and c.kind == kind]
+    if message is not None:
+        return ("inconclusive" if found and found[0].inconclusive else "fail"), message
+    if study.inconclusive and kind != "expected-failure":
+        return "inconclusive", f"{study.scenario.name}: {method} {kind}: INCONCLUSIVE: {'; '.join(study.inconclusive)}"
+    return "pass", None
 
 
 # ------------------------------------------------------------------------------------------------------

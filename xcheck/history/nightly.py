@@ -200,8 +200,8 @@ class NightlyOutcome:
 
     def verdict(self) -> str:
         n = len(self.regressions)
-        return ("PASSED, no regression" if self.passed else
-                f"{'PASSED' if self.report.passed else 'FAILED'}, {n} regression{'s' * (n != 1)}")
+        return (f"{self.report.outcome}, no regression" if not self.regressions else
+                f"{self.report.outcome}, {n} regression{'s' * (n != 1)}")
 
 
 def run_nightly(scenarios, out, *, location, baseline: int | None = None, last: int = 7,

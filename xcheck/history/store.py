@@ -15,7 +15,8 @@ xcheck[postgres]``), with three tables:
                  method or scenario), metric name, value. Names: ``attitude_error`` ``max_attitude_error``
                  ``energy_drift`` ``momentum_drift`` ``norm_drift`` ``wall_time`` ``steps_per_second`` per run;
                  ``observed_order`` ``finest_error`` ``verdict`` (1 pass, 0 fail) per method; ``passed`` and
-                 ``order_floor`` per scenario (method ``""``); ``check:<name>`` (1 passed, 0 failed) per check;
+                 ``order_floor`` per scenario (method ``""``); ``check:<name>`` (1 passed, 0.5 inconclusive, 0 failed)
+                 per check (``passed`` per scenario likewise, by its outcome);
                  ``bench_steps_per_second`` per ``xcheck bench`` row (scenario, method, dt NULL, the batch size
                  in the method name when > 1). An adaptive method's runs share one output step: each is recorded
                  under the method's name and its tolerance (``basilisk-rkf45 rtol=1e-06``), at that step.
@@ -38,6 +39,8 @@ import tempfile
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+
+from ..results import outcome_value
 
 APPLICATION = "xcheck.history"
 #: Raise with every change of the tables, and migrate older databases in ``History.__init__``.
@@ -417,13 +420,15 @@ def report_metrics(results: dict):
     """The ``(scenario, method, dt, metric, value)`` rows of a report's ``results.json`` document."""
     for sc in results["scenarios"]:
         name = sc["scenario"]
-        yield name, "", None, "passed", float(bool(sc["passed"]))
+        yield name, "", None, "passed", outcome_value(sc.get("outcome") or ("PASSED" if sc["passed"] else "FAILED"))
         yield name, "", None, "order_floor", sc.get("order_floor")
         for check in sc.get("checks", []):
-            yield name, "", None, f"check:{check['name']}", float(bool(check["passed"]))
+            status = check.get("status") or ("pass" if check["passed"] else "fail")
+            yield name, "", None, f"check:{check['name']}", {"pass": 1.0, "inconclusive": 0.5, "fail": 0.0}[status]
         for method, m in sc["methods"].items():
             yield name, method, None, "observed_order", m.get("observed_order")
-            yield name, method, None, "verdict", float(m.get("verdict") in ("pass", "expected"))
+            yield name, method, None, "verdict", (0.5 if m.get("verdict") == "inconclusive"
+                                                  else float(m.get("verdict") in ("pass", "expected")))
             finest = finest_error(m)
             if finest is not None:
                 yield name, method, None, "finest_error", finest

@@ -57,8 +57,15 @@ class ReportOutcome:
     marks: list = field(default_factory=list)
 
     @property
+    def outcome(self) -> str:
+        """The report's outcome (:func:`xcheck.results.outcome_of` its studies' and sections')."""
+        from ..results import outcome_of
+
+        return outcome_of([st.outcome for st in self.studies] + ([] if self.determination_passed else ["FAILED"]))
+
+    @property
     def passed(self) -> bool:
-        return all(st.passed for st in self.studies) and self.determination_passed
+        return self.outcome == "PASSED"
 
     def timings(self) -> str:
         """``where the time went: phase 0.12 s, ...``."""

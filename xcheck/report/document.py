@@ -2,7 +2,7 @@
 once (:mod:`xcheck.report.render`) and written as Markdown (:func:`to_markdown`) and as HTML
 (:func:`to_html`). Both emit every block, so the two cannot drift apart.
 
-Cells and badges carry a verdict class (``pass``, ``fail``, ``expected``, ``info``): a colour in HTML, a mark in
+Cells and badges carry a verdict class (``pass``, ``fail``, ``expected``, ``inconclusive``, ``info``): a colour in HTML, a mark in
 Markdown. Inline text is a string or a list of spans ``(text, style)`` with style ``None``, ``"b"``, ``"i"``,
 ``"code"`` or ``"mark"`` (the text is a verdict class: an emoji in Markdown, a coloured chip in HTML).
 """
@@ -70,7 +70,7 @@ class Figure:
     caption: str
 
 
-_MARK = {"pass": "✅", "fail": "❌", "expected": "⚠️", "info": "ℹ️"}
+_MARK = {"pass": "✅", "fail": "❌", "expected": "⚠️", "inconclusive": "❔", "info": "ℹ️"}
 
 
 def _spans(spans):
@@ -125,12 +125,15 @@ table{border-collapse:collapse;margin:1em 0;font-size:.85em}
 th,td{border:1px solid #ddd;padding:.25em .5em;text-align:left;vertical-align:top}
 th{background:#f4f4f4}td.num{text-align:right;font-family:ui-monospace,Menlo,Consolas,monospace}
 td.pass{background:#dff5e1}td.fail{background:#fbdada}td.expected{background:#fff0c8}td.info{background:#eef}
+td.inconclusive{background:#e6e0f5}
 .verdict{font-size:1.2em;padding:.5em 1em;display:inline-block;border-radius:4px}
 .verdict.pass{background:#dff5e1}.verdict.fail{background:#fbdada}.verdict.expected{background:#fff0c8}
+.verdict.inconclusive{background:#e6e0f5}
 figure{margin:1em 0}figure img{max-width:100%}figcaption{font-size:.85em;color:#555}
 .small{font-size:.85em;color:#555}
 .chip{display:inline-block;width:.9em;height:.9em;border:1px solid #bbb;vertical-align:middle;margin:0 .15em}
 .chip.pass{background:#dff5e1}.chip.fail{background:#fbdada}.chip.expected{background:#fff0c8}.chip.info{background:#eef}
+.chip.inconclusive{background:#e6e0f5}
 .scroll{overflow-x:auto;max-width:100%}.scroll table{margin:.5em 0}table.compact{font-size:.8em}table.compact td{white-space:nowrap;padding:.1em .35em}
 details{margin:1em 0}summary{cursor:pointer;font-size:.9em}
 nav.contents ul{columns:3;list-style:none;padding-left:0;font-size:.9em}nav.contents li{margin:.1em 0}
@@ -162,8 +165,8 @@ def to_html(blocks, plot_dir: Path, *, title: str) -> str:
         elif isinstance(b, Verdict):
             parts.append(f"<p class='verdict {_e(b.cls)}'>{_e(b.text)}</p>")
         elif isinstance(b, Table):
-            if b.fold is not None:  # folded, unless a row failed
-                failed = any(_cell(c).cls == "fail" for row in b.rows for c in row)
+            if b.fold is not None:  # folded, unless a row failed or could not decide
+                failed = any(_cell(c).cls in ("fail", "inconclusive") for row in b.rows for c in row)
                 parts.append(f"<details{' open' if failed else ''}><summary>{_e(b.fold)}</summary>")
             links = b.header_links or [None] * len(b.header)
             heads = "".join(f"<th><a href='#{_e(a)}'>{_e(h)}</a></th>" if a else f"<th>{_e(h)}</th>"

@@ -16,6 +16,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from ..results import outcome_of
 from ..trajectory import step_label
 from ..versions import machine, versions
 from .document import Cell, Contents, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
@@ -56,7 +57,8 @@ def report_results(studies, *, quick: bool = False, wall_time=None, throughput=N
     """The results document of ``studies`` (schema ``xcheck.report/1``) before any :class:`Section` joins it."""
     return {"schema": REPORT_SCHEMA, "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
             "quick": quick, "versions": versions(), "machine": machine(), "wall_time": wall_time,
-            "passed": all(st.passed for st in studies), "scenarios": [st.data for st in studies],
+            "passed": all(st.passed for st in studies), "outcome": outcome_of(st.outcome for st in studies),
+            "scenarios": [st.data for st in studies],
             "throughput": throughput or []}
 
 
@@ -66,6 +68,7 @@ def with_sections(results: dict, sections) -> dict:
     for section in sections:
         out.update(section.results)
         out["passed"] = out["passed"] and section.passed
+        out["outcome"] = outcome_of([out.get("outcome", "PASSED"), "PASSED" if section.passed else "FAILED"])
     return out
 
 
@@ -276,20 +279,28 @@ def _write_csvs(st, folder: Path):
 LEGEND = [("Each cell: the observed order · the attitude error [rad] at the finest step. ", None),
           ("pass", "mark"), (" every check passed; ", None), ("fail", "mark"), (" a check failed; ", None),
           ("expected", "mark"), (" a failure the scenario expects (Euler angles at gimbal lock); ", None),
+          ("inconclusive", "mark"), (" a check could not decide (no asymptotic range at these steps, a suspect or "
+                                     "uncertain reference, nothing tested); ", None),
           ("info", "mark"), (" reported without checks.", None)]
+#: The report's verdict line for each outcome.
+VERDICTS = {"PASSED": ("PASSED: every check passed", "pass"), "FAILED": ("FAILED: some checks failed", "fail"),
+            "INCONCLUSIVE": ("INCONCLUSIVE: no check failed, but some could not decide (each scenario says why)",
+                             "inconclusive")}
+#: A scenario's badge for each outcome.
+BADGES = {"PASSED": ("passed", "pass"), "FAILED": ("FAILED", "fail"), "INCONCLUSIVE": ("INCONCLUSIVE", "inconclusive")}
 
 
 def report_document(studies, results: dict, figures: dict, *, extra=(), summary: str | None = None) -> list:
     """The report's blocks: the verdict and the front table, one section per scenario, ``extra`` blocks, the
     appendix. ``results`` is the report's JSON (for its metadata), ``figures`` maps a scenario to its
     ``[(file, caption)]``; ``summary`` a sentence under the verdict."""
-    ok = results["passed"]
+    outcome = results.get("outcome") or ("PASSED" if results["passed"] else "FAILED")
     when = f"Created {results['created']}" + (f" in {results['wall_time']:.1f} s" if results["wall_time"] else "")
     if results["quick"]:
         when += (" (quick: fewer steps; the final-error and invariant checks need the full range and are not "
                  "applied)")
     blocks = [Heading(1, "xcheck cross-check report"),
-              Verdict("PASSED: every check passed", "pass") if ok else Verdict("FAILED: some checks failed", "fail"),
+              Verdict(*VERDICTS[outcome]),
               Para(when + ". Versions: " + ", ".join(f"{k} {v}" for k, v in results["versions"].items()) +
                    f". Machine: {results['machine']['platform']}, {results['machine']['cpus']} CPUs.", small=True),
               *([Para([(summary, "b")])] if summary else []),
@@ -304,7 +315,7 @@ def report_document(studies, results: dict, figures: dict, *, extra=(), summary:
     blocks.append(Heading(2, "In words", anchor="in-words"))
     for st in studies:
         blocks.append(Para([(f"{st.name}: ", "b"), (scenario_summary(st), None)]))
-    blocks.append(Contents([(st.name, st.name, "pass" if st.passed else "fail") for st in studies]
+    blocks.append(Contents([(st.name, st.name, BADGES[st.outcome][1]) for st in studies]
                            + [(h.text, h.anchor, "") for h in extra if isinstance(h, Heading) and h.anchor]
                            + [("Appendix: versions, machine, throughput", "appendix", "")]))
     for st in studies:
@@ -411,7 +422,7 @@ def _front_cell(st, name) -> Cell:
 
 def _scenario_blocks(st, figs) -> list:
     sc = st.scenario
-    blocks = [Heading(2, sc.name, anchor=sc.name, badge=("passed", "pass") if st.passed else ("FAILED", "fail"))]
+    blocks = [Heading(2, sc.name, anchor=sc.name, badge=BADGES[st.outcome])]
     if sc.description:
         blocks.append(Para(sc.description))
     if sc.assumptions:  # a scenario made from an MJCF file alone: what xcheck assumed, in words
@@ -424,18 +435,25 @@ def _scenario_blocks(st, figs) -> list:
                                               f"{_torque_text(sc.torque)}{_own_torque_text(sc)}. Orders "
                                               f"are measured on errors above {st.order_floor:.2g} rad.", None)],
                        small=True))
+    if st.reference_check:  # what the guard found: the closed form checked, or DOP853 instead and why
+        blocks.append(Para([("Reference: ", "b"), (st.reference_check["text"][0].upper() + st.reference_check["text"][1:]
+                                                    + ".", None)], small=True))
+    for why in st.inconclusive:  # what the study cannot decide, beyond its checks' notes
+        blocks.append(Para([("Inconclusive: ", "b"), (why + ".", None)]))
     blocks += [Figure(file, caption) for file, caption in figs]  # the figures first, then the tables behind them
     rows = []
     for c in st.checks:
-        cls = ("expected" if c.kind == "expected-failure" else "pass") if c.passed else "fail"
+        cls = ("expected" if c.kind == "expected-failure" else "pass") if c.passed else c.status
         unit = CHECK_UNITS.get(c.kind, "")
-        rows.append([c.name, Cell("pass" if c.passed else "FAIL", cls),
+        rows.append([c.name, Cell({"pass": "pass", "fail": "FAIL", "inconclusive": "INCONCLUSIVE"}[c.status], cls),
                      Cell(fmt(c.value, ".3g") + (unit if c.value is not None else ""), num=True),
                      Cell(fmt(c.limit, ".3g") + (unit if c.limit is not None else ""), num=True), c.note])
-    failed = sum(not c.passed for c in st.checks)
+    failed = sum(c.failed for c in st.checks)
+    undecided = sum(c.inconclusive for c in st.checks)
     blocks.append(Table(["check", "result", "value", "limit", "note"], rows,
-                        fold=f"{len(st.checks)} checks, {failed} failed" + (" (shown)" if failed else
-                                                                          " (click to show)")))
+                        fold=f"{len(st.checks)} checks, {failed} failed" + (f", {undecided} inconclusive" if undecided
+                                                                           else "")
+                        + (" (shown)" if failed or undecided else " (click to show)")))
     rows = []
     fixed = {n: m for n, m in st.methods.items() if not m.adaptive}
     adaptive = {n: m for n, m in st.methods.items() if m.adaptive}

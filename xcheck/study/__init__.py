@@ -24,7 +24,7 @@ from ..results import Check, MethodResult
 from ..runners import RUNNERS
 from ..scenario import Scenario, check_steps
 from ..versions import versions
-from .checks import adaptive_note, planned_checks, study_checks, study_floor, verdict
+from .checks import adaptive_note, planned_checks, qualify, study_checks, study_floor, verdict
 from .executor import map_tasks, prefer_here
 from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_method
 
@@ -50,6 +50,24 @@ class StudyResult:
     series: dict = field(default_factory=dict)
     comparisons: list = field(default_factory=list)  # {"a", "b", "dt", "max_attitude_difference"}
     versions: dict = field(default_factory=versions)
+    #: what the guard of an exact reference found (:meth:`xcheck.reference.ReferenceCheck.to_json`, with its sentence
+    #: ``text``): the closed form used, or DOP853 instead and why; None for a numerical reference
+    reference_check: dict | None = None
+    #: why the study cannot decide, beyond its checks' own notes (a suspect or uncertain reference, a vacuous study)
+    inconclusive: list = field(default_factory=list)
+
+    @property
+    def outcome(self) -> str:
+        """``FAILED`` (a check failed), ``INCONCLUSIVE`` (a check could not decide, or the study tests nothing) or
+        ``PASSED`` (:data:`xcheck.results.OUTCOMES`)."""
+        if any(c.failed for c in self.checks):
+            return "FAILED"
+        return "INCONCLUSIVE" if self.inconclusive or any(c.inconclusive for c in self.checks) else "PASSED"
+
+    @property
+    def reference_used(self) -> str:
+        """The reference the study measured against: the scenario's, or DOP853 where the guard refused the exact one."""
+        return self.reference_check["used"] if self.reference_check else self.scenario.reference
 
     @property
     def name(self) -> str:
@@ -57,7 +75,7 @@ class StudyResult:
 
     @property
     def passed(self) -> bool:
-        return all(c.passed for c in self.checks)
+        return self.outcome == "PASSED"
 
     @property
     def data(self) -> dict:
@@ -68,8 +86,10 @@ class StudyResult:
                             "euler_sequence": sc.sequence},
                 "quick": self.quick, "steps": list(self.steps), "order_floor": self.order_floor,
                 "versions": self.versions, "methods": {n: m.to_json() for n, m in self.methods.items()},
-                "checks": [c.to_json() for c in self.checks], "passed": self.passed,
+                "checks": [c.to_json() for c in self.checks], "passed": self.passed, "outcome": self.outcome,
+                **({"inconclusive": list(self.inconclusive)} if self.inconclusive else {}),
                 "comparisons": list(self.comparisons),
+                **({"reference_check": {k: v for k, v in self.reference_check.items()}} if self.reference_check else {}),
                 **({"assumptions": list(sc.assumptions)} if sc.assumptions else {}),
                 **({"wheel_speeds": list(sc.wheel_speeds)} if sc.wheel_speeds is not None else {})}
 
@@ -196,11 +216,35 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
                                                  f"{reference_error}")]
     else:
         checks = study_checks(scenario, methods, scenario.checks, quick)
+    comparisons = resolve_comparisons(scenario, [c for res in results for c in res.comparisons])
+    reference_check = next((res.reference_check for res in results if res.reference_check), None)
+    used = reference_check["used"] if reference_check else scenario.reference
+    reasons = [] if reference_error else qualify(scenario, methods, checks, reference=used,
+                                                 reference_check=reference_check, comparisons=comparisons,
+                                                 hint=lambda: _steady_hint(scenario))
     for m in methods.values():
         m.verdict = verdict(m.name, checks)
-    comparisons = resolve_comparisons(scenario, [c for res in results for c in res.comparisons])
     return StudyResult(scenario=scenario, steps=list(steps), methods=methods, checks=checks, order_floor=floor,
-                       quick=quick, series=series, comparisons=comparisons)
+                       quick=quick, series=series, comparisons=comparisons, reference_check=reference_check,
+                       inconclusive=reasons)
+
+
+def _steady_hint(scenario: Scenario) -> str:
+    """Why a scenario's motion is steady, from its body and state: at rest, isotropic, or turning about a principal
+    axis with no torque (a uniform rotation); '' when none of these."""
+    from .context import run_context
+
+    ctx = run_context(scenario)
+    w = np.asarray(ctx.omega0, dtype=float)
+    if not np.any(w) and ctx.torque is None:
+        return "the body is at rest and stays so"
+    moments = np.linalg.eigvalsh(ctx.inertia)
+    if ctx.torque is None and moments[-1] - moments[0] <= 1e-12 * moments[-1]:
+        return "the body is isotropic: it turns uniformly about its initial rate"
+    Iw = ctx.inertia @ w
+    if ctx.torque is None and np.linalg.norm(np.cross(w, Iw)) <= 1e-12 * np.linalg.norm(w) * np.linalg.norm(Iw):
+        return "the body turns about a principal axis: a uniform rotation"
+    return ""
 
 
 def throughput_rows(studies) -> list[dict]:

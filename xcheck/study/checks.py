@@ -3,16 +3,18 @@ the pytest plugin makes items of before anything runs), and a method's verdict."
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
-from ..metrics import ORDER_FLOOR
+from ..metrics import ORDER_CEILING, ORDER_FLOOR
 from ..results import Check, MethodResult
 from ..runners import RUNNERS
 from ..scenario import Scenario
 from ..trajectory import step_label
 
-__all__ = ["study_floor", "study_checks", "planned_checks", "verdict", "adaptive_note", "RULES", "Rule", "Plan"]
+__all__ = ["study_floor", "study_checks", "planned_checks", "verdict", "adaptive_note", "RULES", "Rule", "Plan",
+           "qualify", "check_summary", "steps_that_would_show"]
 
 
 def study_floor(results) -> float:
@@ -23,7 +25,7 @@ def study_floor(results) -> float:
 
 
 def verdict(method: str, checks) -> str:
-    """``pass`` | ``fail`` | ``expected`` | ``info`` (see :mod:`xcheck.results`)."""
+    """``pass`` | ``fail`` | ``expected`` | ``inconclusive`` | ``info`` (see :mod:`xcheck.results`)."""
     if any(c.kind == "reference" and not c.passed for c in checks):
         return "fail"  # nothing could be measured
     related = [c for c in checks if c.method == method]
@@ -31,7 +33,9 @@ def verdict(method: str, checks) -> str:
         return "info"
     if any(c.kind == "expected-failure" for c in related):
         return "expected" if all(c.passed for c in related) else "fail"
-    return "pass" if all(c.passed for c in related) else "fail"
+    if any(c.failed for c in related):
+        return "fail"
+    return "inconclusive" if any(c.inconclusive for c in related) else "pass"
 
 
 @dataclass(frozen=True)
@@ -70,12 +74,24 @@ def _order(m: MethodResult, cfg, ctx) -> Check | None:
     if m.finest is None:
         return None
     expected, order = m.expected_order, m.observed_order
+    early = _pre_asymptotic(m, expected)
     if order is None:
         worst = max(r.attitude_error for r in m.runs if r.attitude_error is not None)
-        return Check("order", worst <= cfg["final_error"], m.name, None, expected,
+        if worst <= cfg["final_error"]:
+            return Check("order", True, m.name, None, expected, f"no asymptotic range ({m.order_note}); every step "
+                                                                 f"within {worst:.2g} rad")
+        if early:  # the steps were too coarse for this method here: the study cannot say, and says what would
+            return Check("order", False, m.name, None, expected,
+                         f"no asymptotic range at these steps: {early}; {steps_that_would_show(m, expected)}",
+                         inconclusive=True)
+        return Check("order", False, m.name, None, expected,
                      f"no asymptotic range ({m.order_note}); every step within {worst:.2g} rad")
     passed = expected - cfg["order_tolerance"] <= order <= expected + cfg["order_excess"]
     note = m.order_note
+    if not passed and order < expected and early:
+        return Check("order", False, m.name, order, expected, f"{note}; pre-asymptotic at these steps: {early}; "
+                                                              f"{steps_that_would_show(m, expected)}",
+                     inconclusive=True)
     runner = RUNNERS.get(m.name)
     finding = runner.finding() if not passed and runner is not None and runner.finding else None
     if finding:  # a known finding of the engine's release: named, with the release to take
@@ -83,6 +99,68 @@ def _order(m: MethodResult, cfg, ctx) -> Check | None:
     if passed and order > expected + cfg["order_tolerance"]:
         note += "; faster than its order here: pre-asymptotic (the next error term still dominates)"
     return Check("order", passed, m.name, order, expected, note)
+
+
+def _errors(m: MethodResult) -> list[tuple[float, float]]:
+    """``(step, error)`` of a method's completed runs, coarse to fine."""
+    return sorted(((r.setting, r.attitude_error) for r in m.runs if r.ok and r.attitude_error is not None),
+                  reverse=True)
+
+
+def _pre_asymptotic(m: MethodResult, expected: int) -> str:
+    """Why ``m``'s runs are still pre-asymptotic at these steps ('' when they are not, or it cannot be told): its
+    finest error is beyond the small-error regime (above half of :data:`~xcheck.metrics.ORDER_CEILING`), or its
+    local orders move toward ``expected`` step after step (a method whose order is wrong keeps a wrong local order,
+    or wanders): the fitted order, a median of the finest, then lags behind them."""
+    runs = [(dt, e) for dt, e in _errors(m) if e > 0]
+    if not runs:
+        return ""
+    dt_f, e_f = runs[-1]
+    if e_f > ORDER_CEILING / 2:
+        return f"the error is still {e_f:.2g} rad at the finest step {step_label(dt_f)} s"
+    local = [math.log(e1 / e2) / math.log(d1 / d2) for (d1, e1), (d2, e2) in zip(runs, runs[1:])
+             if e2 > 10 * ORDER_FLOOR and d1 != d2]
+    if len(local) < 2:
+        return ""
+    gaps = [abs(p - expected) for p in local]
+    tail = gaps[-3:]
+    if all(b < a for a, b in zip(tail, tail[1:])):
+        return (f"its local orders approach {expected} as the step shrinks ("
+                f"{', '.join(f'{p:.2f}' for p in local[-len(tail):])})")
+    return ""
+
+
+def steps_that_would_show(m: MethodResult, expected: int) -> str:
+    """Which steps would show ``m``'s order: from the one where its error would be a quarter of its finest (or 0.01
+    rad, the smaller), extrapolated at the expected order, five halvings down (powers of two)."""
+    runs = [(dt, e) for dt, e in _errors(m) if e > 0]
+    if not runs:
+        return "no completed run to extrapolate from"
+    dt_f, e_f = runs[-1]
+    target = min(0.01, e_f / 4)
+    top = dt_f * (target / e_f) ** (1 / max(expected, 1))
+    top = 2.0 ** math.floor(math.log2(top))
+    return f"steps {step_label(top)} … {step_label(top / 16)} s would show one (extrapolated at order {expected})"
+
+
+def check_summary(check: Check, cfg: dict) -> str:
+    """What a check measured against what it allows, in words with numbers (the terminal's failure line and the
+    pytest message): ``observed order 5.02; expected 4 (allowed 3.70 … 5.00)``, ``attitude error 3.1e-08 rad at the
+    finest step; limit 1e-09 rad``."""
+    def num(v):
+        return "—" if v is None else f"{v:.3g}"
+
+    if check.kind == "order":
+        if check.limit is None:
+            return check.note
+        allowed = f"{check.limit - cfg['order_tolerance']:.2f} … {check.limit + cfg['order_excess']:.2f}"
+        return f"observed order {num(check.value)}; expected {num(check.limit)} (allowed {allowed})"
+    what = {"final-error": "attitude error at the finest step", "invariants": "energy / momentum drift at the "
+            "finest step", "agreement": "worse of the two errors"}.get(check.kind)
+    if what is None or check.value is None:
+        return check.note
+    unit = "" if check.kind == "invariants" else " rad"
+    return f"{what} {num(check.value)}{unit}; limit {num(check.limit)}{unit}"
 
 
 def _final_error(m: MethodResult, cfg, ctx) -> Check | None:
@@ -200,3 +278,75 @@ def study_checks(scenario: Scenario, methods: dict, cfg, quick: bool = False) ->
         if m.name not in expected_to_fail:
             checks += made(m, True)
     return checks
+
+
+# ------------------------------------------------------------------------------------------------------
+# what a study cannot decide (issue 36): verdicts that blame the right thing
+# ------------------------------------------------------------------------------------------------------
+#: Checks measured against the reference, which a suspect or uncertain reference leaves undecided.
+_AGAINST_REFERENCE = ("final-error", "agreement", "order")
+
+
+def qualify(scenario: Scenario, methods: dict, checks: list, *, reference: str, reference_check: dict | None,
+            comparisons: list, hint=None) -> list[str]:
+    """Mark the checks a study cannot decide as inconclusive (in place) and return the study's own reasons:
+
+    * **the reference unchecked** (its independent check is beyond its budget): a failing check against it is
+      undecided;
+    * **the reference less certain than a check**: where the guard measured the motion's conditioning
+      (``reference_check["uncertainty"]``), a failing error check whose error is within ten times it is undecided;
+    * **the reference suspect**: every fourth-order method (two at least) fails against it with the same error (to
+      10 %) and, where an engine's RK4 was compared trajectory to trajectory with ours, they differ by a tenth of it
+      at most: the methods agree with one another, not with the reference;
+    * **a vacuous study**: no method's order could be measured, every one stayed within its limit at every step,
+      and the motion is a steady one (``hint()``, called only then, says which: a body at rest, an isotropic one, a
+      rotation about a principal axis): nothing was tested. (Steps merely too fine to show an order are said in the
+      order checks' notes, and pass.)
+    """
+    reasons = []
+    cfg = scenario.checks
+    if reference_check and not reference_check.get("checked", True):  # too fast for its independent check
+        unchecked = [c for c in checks if c.failed and c.kind in _AGAINST_REFERENCE]
+        for c in unchecked:
+            c.inconclusive = True
+            c.note += "; the reference could not be checked here, and this check compares with it"
+        if unchecked:
+            reasons.append(f"the reference is {reference_check.get('text', 'unchecked')}")
+    uncertainty = (reference_check or {}).get("uncertainty") or 0.0
+    if uncertainty > cfg["final_error"]:
+        for c in checks:
+            if c.failed and c.kind in ("final-error", "agreement") and c.value is not None and c.value <= 10 * uncertainty:
+                c.inconclusive = True
+                c.note += (f"; the reference is certain only to {uncertainty:.2g} rad for this motion (it amplifies the "
+                           "last bit of its inputs): this error cannot be told from the reference's")
+        if any(c.inconclusive for c in checks):
+            reasons.append(f"the reference is certain only to {uncertainty:.2g} rad for this motion, above the "
+                           f"checks' limit {cfg['final_error']:g} rad: {reference_check.get('text', '')}")
+    expected_to_fail = cfg["expected_to_fail"]
+    fourth = [m for m in methods.values() if m.expected_order == 4 and m.finest is not None and not m.adaptive
+              and m.name not in expected_to_fail]
+    errors = [m.finest.attitude_error for m in fourth]
+    failing = [c for c in checks if c.failed and c.kind in _AGAINST_REFERENCE and c.method in {m.name for m in fourth}]
+    if len(fourth) >= 2 and failing and min(errors) > cfg["final_error"] and max(errors) - min(errors) <= 0.1 * min(errors):
+        lo, hi = min(errors), max(errors)
+        direct = [c["max_attitude_difference"] for c in comparisons
+                  if c["a"] in {m.name for m in fourth} and c["dt"] == methods[c["a"]].finest.dt]
+        if all(d <= 0.1 * lo for d in direct):
+            why = (f"the {len(fourth)} fourth-order methods agree with one another (their errors against it, "
+                   f"{lo:.3g} … {hi:.3g} rad, are the same to {100 * (hi - lo) / lo:.2g} %"
+                   + (f"; engine and ours differ by at most {max(direct):.2g} rad trajectory to trajectory" if direct
+                      else "") + f") but not with the {reference} reference: the reference is suspect")
+            for c in failing:
+                c.inconclusive = True
+                c.note += f"; {why}"
+            reasons.append(why + " (a finer 'fine' reference, or 'dop853', would decide)")
+    orders = [c for c in checks if c.kind == "order"]
+    if orders and all(c.value is None and c.passed for c in orders) and not any(c.failed for c in checks):
+        steady = hint() if hint else ""
+        if steady:
+            worst = max((r.attitude_error for m in methods.values() for r in m.runs if r.attitude_error is not None),
+                        default=0.0)
+            reasons.append(f"vacuous: {steady}, so every method stays within {worst:.2g} rad at every step, no order "
+                           "could be measured and nothing was tested (give the body a rate about more than one "
+                           "principal axis, and unequal moments)")
+    return reasons

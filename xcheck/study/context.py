@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..reference import ReferenceFailure, dop853_solution, exact_reference
+from ..reference import ReferenceFailure, check_exact, dop853_solution, exact_reference, guard_times
 from ..runners import RUNNERS, RunContext
 from ..scenario import Scenario, build_torque, torque_parts
 
@@ -53,14 +53,23 @@ def run_context(scenario: Scenario) -> RunContext:
 
 
 class _Reference:
-    """The reference of a scenario, evaluated on any run's grid (cached per process)."""
+    """The reference of a scenario, evaluated on any run's grid (cached per process). An exact one is checked first
+    (the guard, :func:`~xcheck.reference.check_exact`: against the compiled DOP853 at times of the study's own
+    grids); where it fails, the study's reference is that DOP853 run instead (``used`` says which), and ``check``
+    (its JSON) says why."""
 
     def __init__(self, scenario: Scenario, ctx: RunContext):
-        self.kind = scenario.reference
+        self.kind = self.used = scenario.reference
         self.scenario, self.ctx = scenario, ctx
+        self.check = None
         self._grids = []
-        if self.kind == "exact":  # fails early when the body turns too fast for the quadrature
-            exact_reference(ctx.inertia, ctx.q0, ctx.omega0, np.array([0.0, ctx.duration]), ctx.torque)
+        if self.kind == "exact":
+            grids = (*scenario.steps, *scenario.quick_steps, scenario.adaptive_step)
+            check = check_exact(ctx.inertia, ctx.q0, ctx.omega0, ctx.duration, ctx.torque,
+                                guard_times(ctx.duration, grids))
+            self.check = check.to_json() | {"text": check.describe()}
+            if not check.passed:
+                self.used, self.dense = "dop853", check.solution
         elif self.kind == "dop853":
             self.dense = dop853_solution(ctx.inertia, ctx.q0, ctx.omega0, ctx.duration, torque=ctx.torque)
         elif self.kind == "fine":
@@ -82,10 +91,10 @@ class _Reference:
         return values
 
     def _at(self, t):
-        if self.kind == "exact":
+        if self.used == "exact":
             q, w = exact_reference(self.ctx.inertia, self.ctx.q0, self.ctx.omega0, t, self.ctx.torque)
             return q, w, np.ones(len(t), bool)
-        if self.kind == "dop853":
+        if self.used == "dop853":
             q, w = self.dense(t)
             return q, w, np.ones(len(t), bool)
         # fine: only at times on its own grid (its last point is the duration, whatever the step)

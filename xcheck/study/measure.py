@@ -76,7 +76,8 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
         if partner is not None:
             comparisons.append(_compare(scenario, ctx, traj, method, partner, dt))
     series = _sample(finest, ref, ctx) if finest is not None and sample else None
-    return MethodRuns(method, runs, series=series, comparisons=[c for c in comparisons if c is not None])
+    return MethodRuns(method, runs, series=series, comparisons=[c for c in comparisons if c is not None],
+                      reference_check=ref.check)
 
 
 def _compare(scenario, ctx, traj, method: str, partner: str, dt: float, now: bool = False) -> dict | None:

@@ -306,7 +306,7 @@ def _run_batched(method: str, cells: list[_Cell], steps: tuple) -> None:
             runs[i].append(measure_run(method, traj, c.ref, c.ctx, dt, wall))
             c.timings["compute"] += wall + (time.perf_counter() - t1)
     for c, r in zip(cells, runs):
-        c.results.append(MethodRuns(method, r, batched=True))
+        c.results.append(MethodRuns(method, r, batched=True, reference_check=c.ref.check))
 
 
 def _record(c: _Cell, methods: list[str], steps: tuple) -> dict:
@@ -321,7 +321,7 @@ def _record(c: _Cell, methods: list[str], steps: tuple) -> dict:
                                                               c.scenario.quick_tolerances), c.failure)
                      for m in methods]
     st = assemble(c.scenario, list(steps), c.results, quick=True)
-    return {"id": c.id, "params": c.params, "passed": st.passed, "order_floor": st.order_floor,
+    return {"id": c.id, "params": c.params, "passed": st.passed, "outcome": st.outcome, "order_floor": st.order_floor,
             "methods": {n: m.to_json() for n, m in st.methods.items()},
             "batched": sorted(r.method for r in c.results if r.batched),
             "checks": [ch.to_json() for ch in st.checks],
