@@ -678,11 +678,18 @@ def test_default_steps_that_do_not_fit_name_the_duration(tmp_path, capsys):
     assert code == 2 and "[study] steps: the default steps do not fit" in err and "give [study] steps" in err
 
 
-def test_short_duration_drops_default_steps_longer_than_it(tmp_path):
+def test_short_duration_gets_steps_that_fit_it(tmp_path):
+    """Issue 36: steps left out are derived from the body and the duration: over 0.1 s, the coarsest is at most a
+    quarter of it; the full ladder reaches the quick one's finest; and the seed's ladder, filtered, where the model
+    is not loaded (pytest's collection: derived when its study starts)."""
     from xcheck.scenario import load_scenario
 
     sc = load_scenario(scenario(tmp_path, duration=0.1))
-    assert max(sc.steps) == 2.0**-4 and min(sc.steps) == 2.0**-12 and max(sc.quick_steps) == 2.0**-6
+    assert max(sc.steps) <= 0.1 / 4 and min(sc.steps) <= min(sc.quick_steps) and len(sc.quick_steps) == 5
+    assert any("derived from the body: steps" in a for a in sc.assumptions)
+    unloaded = load_scenario(scenario(tmp_path, duration=0.1), check_model=False)
+    assert max(unloaded.steps) == 2.0**-4 and min(unloaded.steps) == 2.0**-12 and unloaded.derive == ("steps", "quick_steps",
+                                                                                                      "final_error", "agreement", "invariant_tolerance")
 
 
 @pytest.mark.parametrize("initial, match", [

@@ -24,7 +24,7 @@ from .body import principal_axes, validate_inertia
 from .trajectory import check_initial_state, continuous_quaternions
 
 __all__ = ["exact_torque_free", "exact_reference", "check_exact", "ReferenceCheck", "guard_times", "exact_kind", "GUARD_BOUND", "exact_why_not", "exact_gyrostat", "gyrostat_why_not", "lagrange_top", "lagrange_why_not", "dop853", "dop853_solution", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL",
-           "ReferenceFailure", "solve_bounded"]
+           "ReferenceFailure", "solve_bounded", "own_period"]
 
 #: Principal moments closer than this (relative to the largest) are equal (axisymmetry): the round-off of the
 #: principal moments of a turned tensor. Any larger difference is the body's own and the elliptic solution takes
@@ -355,38 +355,11 @@ def lagrange_top(inertia, q0, omega0, t, *, centre, force):
     and ``omega`` (n, 3), body frame. :class:`ReferenceFailure` when the axis comes within
     :data:`LAGRANGE_MIN_SIN2` of the vertical."""
     I, q0, omega0, t = _inputs(inertia, q0, omega0, t)
-    why = lagrange_why_not(I, centre, force)
-    if why is not None:
-        raise ReferenceFailure(f"the exact heavy-top reference: {why}")
-    c, F = np.asarray(centre, dtype=float), np.asarray(force, dtype=float)
-    e3 = c / np.linalg.norm(c)
-    C = e3 @ I @ e3
-    A = 0.5 * (np.trace(I) - C)
-    B = rot.frame_with_z(e3)  # body components of the top's axes (columns), the third along c
-    G = rot.frame_with_z(-F / np.linalg.norm(F))  # world components of the vertical frame, its z upward
-    qB, qG = rot.dcm_to_quat(B), rot.dcm_to_quat(G)
-    qT = rot.quat_mul(rot.quat_mul(rot.quat_conj(qG), q0), qB)  # top frame -> vertical frame
-    wT = B.T @ omega0
-    psi0, theta0, phi0 = rot.quat_to_euler(qT, "313", warn=False)
-    R = rot.quat_to_dcm(qT)
-    u0 = float(np.clip(R[2, 2], -1.0, 1.0))
-    one_minus_u0 = 2.0 * (qT[1] ** 2 + qT[2] ** 2)  # 1 - cos theta0 = 2 sin^2(theta0/2), without cancellation
-    one_plus_u0 = 2.0 * (qT[0] ** 2 + qT[3] ** 2)
-    Mgl = float(np.linalg.norm(F) * np.linalg.norm(c))
-    beta, b = 2 * Mgl / A, C * wT[2] / A
-    P = R[2, 0] * wT[0] + R[2, 1] * wT[1]  # a - b u0 = psi0' sin^2 theta0 (L_z - L_3 u0 over A, the spin's part cancelled)
-    theta_dot0 = wT[0] * np.cos(phi0) - wT[1] * np.sin(phi0)  # from the 3-1-3 rates
-    near = min(one_minus_u0, one_plus_u0)  # the start's distance from the nearer vertical, 1 -+ cos theta0
-    if near * (2 - near) >= LAGRANGE_MIN_SIN2:
-        roots = _top_roots(beta, theta_dot0, P, b, one_minus_u0, one_plus_u0)
-        near = min(roots.y1, roots.z2)
-    a_minus_b, a_plus_b = P - b * one_minus_u0, P + b * one_plus_u0
-    if near * (2 - near) < LAGRANGE_MIN_SIN2:
-        nearest = near
-        raise ReferenceFailure(f"the exact heavy-top reference: the axis comes within "
-                               f"{np.degrees(2 * np.arcsin(np.sqrt(nearest / 2))):.3g} deg of the vertical, where "
-                               "its precession rate loses digits; use 'dop853'")
+    top = _top_state(I, q0, omega0, centre, force)
+    roots, b, wT, theta_dot0 = _top_cubic(top), top.b, top.wT, top.theta_dot0
     x1, x2, x3 = roots.x1, roots.x2, roots.x3
+    one_minus_u0, one_plus_u0, psi0, phi0, beta = top.one_minus_u0, top.one_plus_u0, top.psi0, top.phi0, top.beta
+    a_minus_b, a_plus_b = top.P - b * one_minus_u0, top.P + b * one_plus_u0
     span = x2 - x1
     lam = 0.5 * np.sqrt(beta * (x3 - x1))
     m, m1 = span / (x3 - x1), (x3 - x2) / (x3 - x1)
@@ -421,9 +394,71 @@ def lagrange_top(inertia, q0, omega0, t, *, centre, force):
     psi_dot = 0.5 * a_minus_b / one_minus_u + 0.5 * a_plus_b / one_plus_u
     rates = np.stack([psi_dot, -u_dot / sin_theta, wT[2] - u * psi_dot], axis=-1)
     angles = np.stack([psi, theta, phi], axis=-1)
-    q = rot.quat_mul(rot.quat_mul(qG, rot.euler_to_quat(angles, "313")), rot.quat_conj(qB))
-    omega = rot.euler_rates_to_omega(angles, rates, "313") @ B.T
+    q = rot.quat_mul(rot.quat_mul(top.qG, rot.euler_to_quat(angles, "313")), rot.quat_conj(top.qB))
+    omega = rot.euler_rates_to_omega(angles, rates, "313") @ top.B.T
     return continuous_quaternions(q), omega
+
+
+@dataclass(frozen=True)
+class _TopState:
+    """A heavy symmetric top's start in its own frames (:func:`lagrange_top`): the body's top frame ``B`` (columns,
+    the third along the centre of mass) and the world's vertical frame ``G`` (its z upward), ``qT`` the top frame ->
+    vertical frame, ``wT`` the body rate in the top frame, the 3-1-3 angles ``psi0``, ``phi0``, ``1 -+ u0`` (u0 =
+    cos theta0), ``beta = 2 m g l / A``, ``b = L_3 / A``, ``P = a - b u0 = psi0' sin^2 theta0`` and ``theta_dot0``."""
+
+    A: float
+    C: float
+    B: np.ndarray
+    qB: np.ndarray
+    qG: np.ndarray
+    wT: np.ndarray
+    psi0: float
+    phi0: float
+    one_minus_u0: float
+    one_plus_u0: float
+    beta: float
+    b: float
+    P: float
+    theta_dot0: float
+
+
+def _top_state(I, q0, omega0, centre, force) -> _TopState:
+    why = lagrange_why_not(I, centre, force)
+    if why is not None:
+        raise ReferenceFailure(f"the exact heavy-top reference: {why}")
+    c, F = np.asarray(centre, dtype=float), np.asarray(force, dtype=float)
+    e3 = c / np.linalg.norm(c)
+    C = e3 @ I @ e3
+    A = 0.5 * (np.trace(I) - C)
+    B = rot.frame_with_z(e3)  # body components of the top's axes (columns), the third along c
+    G = rot.frame_with_z(-F / np.linalg.norm(F))  # world components of the vertical frame, its z upward
+    qB, qG = rot.dcm_to_quat(B), rot.dcm_to_quat(G)
+    qT = rot.quat_mul(rot.quat_mul(rot.quat_conj(qG), q0), qB)  # top frame -> vertical frame
+    wT = B.T @ omega0
+    psi0, _, phi0 = rot.quat_to_euler(qT, "313", warn=False)
+    R = rot.quat_to_dcm(qT)
+    Mgl = float(np.linalg.norm(F) * np.linalg.norm(c))
+    return _TopState(A=float(A), C=float(C), B=B, qB=qB, qG=qG, wT=wT, psi0=float(psi0), phi0=float(phi0),
+                     one_minus_u0=2.0 * (qT[1] ** 2 + qT[2] ** 2),  # 1 - cos theta0 = 2 sin^2(theta0/2), no cancellation
+                     one_plus_u0=2.0 * (qT[0] ** 2 + qT[3] ** 2), beta=2 * Mgl / A, b=C * wT[2] / A,
+                     # a - b u0 = psi0' sin^2 theta0 (L_z - L_3 u0 over A: the spin's part cancelled)
+                     P=R[2, 0] * wT[0] + R[2, 1] * wT[1],
+                     theta_dot0=wT[0] * np.cos(phi0) - wT[1] * np.sin(phi0))  # from the 3-1-3 rates
+
+
+def _top_cubic(top: _TopState) -> "_TopRoots":
+    """The cubic's roots of a top (:func:`_top_roots`), or :class:`ReferenceFailure` where its axis comes within
+    :data:`LAGRANGE_MIN_SIN2` of the vertical."""
+    near = min(top.one_minus_u0, top.one_plus_u0)  # the start's distance from the nearer vertical, 1 -+ cos theta0
+    roots = None
+    if near * (2 - near) >= LAGRANGE_MIN_SIN2:
+        roots = _top_roots(top.beta, top.theta_dot0, top.P, top.b, top.one_minus_u0, top.one_plus_u0)
+        near = min(roots.y1, roots.z2)
+    if near * (2 - near) < LAGRANGE_MIN_SIN2:
+        raise ReferenceFailure(f"the exact heavy-top reference: the axis comes within "
+                               f"{np.degrees(2 * np.arcsin(np.sqrt(near / 2))):.3g} deg of the vertical, where "
+                               "its precession rate loses digits; use 'dop853'")
+    return roots
 
 
 @dataclass(frozen=True)
@@ -611,6 +646,50 @@ def dop853(inertia, q0, omega0, t, *, torque=None, rtol: float = 1e-13, atol: fl
         raise ValueError("t: expected ascending times from 0")
     q, w = dop853_solution(inertia, q0, omega0, t[-1], torque=torque, rtol=rtol, atol=atol)(t)
     return continuous_quaternions(q), w
+
+
+def own_period(inertia, q0, omega0, torque=None) -> float | None:
+    """The period [s] of a body's own motion, where a closed form knows it (issue 36: a default duration shows it):
+    torque free, the elliptic period of its rate (asymmetric), its body cone's (axisymmetric; the longer of it and
+    the precession's), one turn (a steady rotation); a Lagrange top, its nutation's (its precession's when steady);
+    an axisymmetric gyrostat, its body cone's. None at rest, or where no closed form applies."""
+    I, q0, omega0, _ = _inputs(inertia, q0, omega0, [0.0])
+    if exact_why_not(I, torque) is not None:
+        return None
+    if torque is not None and not getattr(torque, "conserves_momentum", False):  # Lagrange's top
+        centre, force = torque.fixed_form()
+        try:
+            top = _top_state(I, q0, omega0, centre, force)
+            roots = _top_cubic(top)
+        except ReferenceFailure:
+            return None
+        span = roots.x2 - roots.x1
+        if span > 0:
+            lam = 0.5 * np.sqrt(top.beta * (roots.x3 - roots.x1))
+            return float(2 * _complete_k((roots.x3 - roots.x2) / (roots.x3 - roots.x1)) / lam)
+        sin2 = top.one_minus_u0 * top.one_plus_u0
+        return float(2 * np.pi * sin2 / abs(top.P)) if top.P else None  # psi' = P / sin^2 theta
+    h = np.zeros(3) if torque is None else np.asarray(torque.h0, dtype=float)
+    if not np.any(omega0) and not np.any(h):
+        return None
+    if np.any(h):  # the axisymmetric gyrostat: lam = ((C - A) w_e + |h|) / A
+        e = h / np.linalg.norm(h)
+        A, C = symmetric_moments(I, e)
+        lam = ((C - A) * (e @ omega0) + np.linalg.norm(h)) / A
+        H = np.linalg.norm(I @ omega0 + h)
+        return float(2 * np.pi / max(abs(lam), H / A)) if lam or H else None
+    J, V = principal_axes(I)
+    w = V.T @ omega0
+    Jw = J * w
+    if np.linalg.norm(np.cross(w, Jw)) <= 1e-12 * np.linalg.norm(w) * np.linalg.norm(Jw):
+        return float(2 * np.pi / np.linalg.norm(w))  # a steady rotation: one turn
+    if J[1] - J[0] <= EQUAL_MOMENTS_RTOL * J[2] or J[2] - J[1] <= EQUAL_MOMENTS_RTOL * J[2]:
+        axis = 2 if J[1] - J[0] <= EQUAL_MOMENTS_RTOL * J[2] else 0
+        I_t = np.mean(np.delete(J, axis))
+        lam = (J[axis] - I_t) * w[axis] / I_t
+        cone = 2 * np.pi / abs(lam) if lam else np.inf
+        return float(max(min(cone, 1e300), 2 * np.pi * I_t / np.linalg.norm(Jw)))
+    return elliptic_period(I, omega0)
 
 
 def elliptic_period(inertia, omega0) -> float:

@@ -28,7 +28,7 @@ else:  # pragma: no cover
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "check_scenario_model", "scenario_from_model",
            "model_scenario_text", "is_model_arg", "bundled_scenarios", "build_torque", "torque_parts",
-           "resolve_scenario", "check_name", "check_steps", "torque_terms", "magnetic_term", "copy_torque", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
+           "resolve_scenario", "check_name", "check_steps", "fill_derived", "torque_terms", "magnetic_term", "copy_torque", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
            "ADAPTIVE_TURN", "default_adaptive_step",
            "SCENARIO_DIR"]
 
@@ -139,8 +139,11 @@ class Scenario:
     #: (its first keyframe's, else zero)
     wheel_speeds: tuple | None = None
     #: what xcheck assumed to make the scenario (one from an MJCF file alone: its initial state's source, the
-    #: duration, the torque, the reference, the Euler sequence); the report states them. () for a scenario file
+    #: duration, the torque, the reference, the Euler sequence; a scenario file's derived steps); the report states them
     assumptions: tuple = ()
+    #: the keys the file left out that are derived from the body when the model is loaded (:func:`fill_derived`,
+    #: issue 36): ``steps``, ``quick_steps``, and with the steps the checks' limits
+    derive: tuple = ()
 
 
 def _tolerances(st, key, default) -> tuple:
@@ -341,10 +344,11 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
     st = _Reader(path, top.get("study", "table", {}), "study")
     steps = tuple(st.get("steps", "numbers", list(DEFAULT_STEPS)))
     quick_steps = tuple(st.get("quick_steps", "numbers", list(QUICK_STEPS)))
-    if "steps" not in st.table:  # the defaults need not fit every duration: steps longer than it are dropped
-        steps = tuple(v for v in steps if v <= duration) or (duration,)
+    if "steps" not in st.table:  # the defaults need not fit every duration: steps longer than it are dropped (and the
+        steps = tuple(v for v in steps if v <= duration) or (duration,)  # body's own replace them: fill_derived)
     if "quick_steps" not in st.table:
         quick_steps = tuple(v for v in quick_steps if v <= duration) or (duration,)
+    derive = tuple(k for k in ("steps", "quick_steps") if k not in st.table)
     for key, values in (("steps", steps), ("quick_steps", quick_steps)):
         try:
             check_steps(values, duration)
@@ -382,6 +386,8 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
     st.finish()
 
     ck = _Reader(path, top.get("checks", "table", {}), "checks")
+    if "steps" in derive:  # the limits that go with derived steps, where the file leaves them out too
+        derive += tuple(k for k in ("final_error", "agreement", "invariant_tolerance") if k not in ck.table)
     checks = dict(DEFAULT_CHECKS)
     for key in ("order_tolerance", "order_excess", "final_error", "invariant_tolerance", "agreement"):
         checks[key] = ck.positive(key, DEFAULT_CHECKS[key])
@@ -405,7 +411,7 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
                         quick_steps=quick_steps, tolerances=tolerances, quick_tolerances=quick_tolerances,
                         adaptive_step=adaptive_step, methods=methods, reference=reference,
                         reference_method=reference_method, reference_dt=reference_dt, checks=checks,
-                        determination=determination, wheel_speeds=wheel_speeds)
+                        determination=determination, wheel_speeds=wheel_speeds, derive=derive)
     if check_model:
         check_scenario_model(scenario)
     return scenario
@@ -430,6 +436,8 @@ def check_scenario_model(scenario: Scenario) -> None:
         torque = build_torque(scenario, body)
     except ValueError as exc:
         raise ScenarioError(f"{scenario.path}: [torque]: {exc}") from None
+    if scenario.derive:
+        fill_derived(scenario, body, torque)
     if scenario.reference == "exact" and torque is not None:
         from .reference import ReferenceFailure, exact_reference, exact_why_not
 
@@ -443,6 +451,34 @@ def check_scenario_model(scenario: Scenario) -> None:
         if why is not None:
             raise ScenarioError(f"{scenario.path}: [study] reference: 'exact' is the torque-free solution, Lagrange's "
                                 f"top or the axisymmetric gyrostat, and the body is under {torque.describe()}: {why}")
+
+
+def fill_derived(scenario: Scenario, body, torque) -> None:
+    """The steps, quick steps and limits a scenario file left out, derived from its body and motion
+    (:func:`xcheck.defaults.derive`), in place; each stated among its assumptions (the report says them)."""
+    from .defaults import derive
+
+    try:
+        d = derive(body.inertia_for(scenario.inertia), scenario.q0, scenario.omega0, scenario.duration, torque)
+    except ValueError as exc:  # kept: the seed's ladder, said
+        scenario.assumptions = tuple(scenario.assumptions) + (
+            f"the default steps (seed 004's, 1/2 … 1/4096 s; quick 1/64 … 1/1024 s), not derived from the body: {exc}",)
+        scenario.derive = ()
+        return
+    said = []
+    if "steps" in scenario.derive:
+        scenario.steps = d.steps
+        said.append(f"steps {d.why['steps']}")
+    if "quick_steps" in scenario.derive:
+        scenario.quick_steps = d.quick_steps
+        said.append(f"quick steps {d.why['quick_steps']}")
+    limits = [k for k in ("final_error", "agreement", "invariant_tolerance") if k in scenario.derive]
+    for key in limits:
+        scenario.checks[key] = d.final_error if key != "invariant_tolerance" else d.invariant_tolerance
+    if limits and d.final_error != DEFAULT_CHECKS["final_error"]:
+        said.append(f"checks' limits ({', '.join(limits)}) {d.why['final_error']}")
+    scenario.assumptions = tuple(scenario.assumptions) + tuple(f"derived from the body: {s}" for s in said)
+    scenario.derive = ()
 
 
 #: The keys of the surface forces' [torque] tables (:mod:`xcheck.fields.surface`): key -> (shape, required).
@@ -580,8 +616,6 @@ def resolve_scenario(name_or_path) -> Scenario:
 # ------------------------------------------------------------------------------------------------------
 # a scenario from an MJCF file alone (xcheck report MODEL.xml, xcheck init)
 # ------------------------------------------------------------------------------------------------------
-#: The duration [s] of a scenario made from an MJCF file alone (the bundled scenarios' own).
-MODEL_DURATION = 10.0
 #: An Euler sequence closer to its singularity than this [deg] over the run makes ``euler-rk4`` a method the
 #: scenario expects to fail (it stops there: the seeds' point about Euler angles, not the model's fault).
 EULER_MARGIN_DEG = 10.0
@@ -628,6 +662,14 @@ def _euler_margins(inertia, q0, omega0, duration: float, torque=None, reference:
     return out
 
 
+def _idle_motors(body) -> list[str]:
+    """The motors on a model's wheels that exert nothing (no ``xcheck_pulse`` commands them): said, not silent."""
+    from .models import PULSE_NUMERIC
+
+    return [f"wheel '{w.name}' has a motor but no <numeric name=\"{PULSE_NUMERIC}ACTUATOR\"> commands it: the motor "
+            "exerts nothing and the wheel turns freely" for w in body.wheels if w.actuator >= 0 and w.pulse is None]
+
+
 def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | None = None) -> tuple[str, tuple]:
     """The scenario file that the defaults for an MJCF file stand for, every key present and commented (what
     ``xcheck init`` writes and what ``xcheck report MODEL.xml`` runs), and the assumptions it makes, in words
@@ -650,9 +692,18 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
     own = body.own_torque(state.omega0, state.wheel_speeds)
     why_not = exact_why_not(body.inertia, own)
     reference = "exact" if why_not is None else "dop853"
+    from .defaults import StudyDefaults, derive
+
+    try:  # steps, duration and limits from the body
+        derived = derive(body.inertia, state.q0, state.omega0, None, own)
+    except ValueError as exc:  # the seed's defaults, said
+        derived = StudyDefaults(DEFAULT_STEPS, QUICK_STEPS, 10.0, 1e-9, 1e-9,
+                                {"duration": f"10 s (not derived: {exc})", "steps": "1/2 … 1/4096 s, seed 004's",
+                                 "quick_steps": "1/64 … 1/1024 s", "final_error": "1e-9 rad"})
+    duration = derived.duration
     margins = None
     try:
-        margins = _euler_margins(body.inertia, state.q0, state.omega0, MODEL_DURATION, own, reference)
+        margins = _euler_margins(body.inertia, state.q0, state.omega0, duration, own, reference)
     except ReferenceFailure as exc:
         if own is None:
             margins = exc
@@ -669,12 +720,15 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
                        else "the exact heavy symmetric top (Lagrange's, closed form)")
         reference_words = (f"reference: {exact_words}" if reference == "exact"
                            else f"reference: DOP853 at rtol 1e-13 ({why_not})")
-    assumptions = [f"initial state: {state.source}", *state.notes, *body.notes,
-                   f"duration {MODEL_DURATION:g} s (the default); {torque_words}", reference_words]
+    assumptions = [f"initial state: {state.source}", *state.notes, *body.notes, *_idle_motors(body),
+                   f"duration {derived.why['duration']}; {torque_words}", reference_words,
+                   f"steps {derived.why['steps']}", f"quick steps {derived.why['quick_steps']}",
+                   *([f"the checks' limits {derived.why['final_error']}"]
+                     if derived.final_error != DEFAULT_CHECKS["final_error"] else [])]
     expected_to_fail, sequence = [], "323"
     try:
         if margins is None:
-            margins = _euler_margins(body.inertia, state.q0, state.omega0, MODEL_DURATION, own, reference)
+            margins = _euler_margins(body.inertia, state.q0, state.omega0, duration, own, reference)
         if isinstance(margins, Exception):
             raise margins
     except (ReferenceFailure, ValueError) as exc:
@@ -689,8 +743,8 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         else:
             assumptions.append(f"euler-rk4's sequence: {sequence}, the one farthest from its singularity over the "
                                f"run ({margins[sequence]:.1f} deg)")
-    steps = [v for v in DEFAULT_STEPS if v <= MODEL_DURATION]
-    quick = [v for v in QUICK_STEPS if v <= MODEL_DURATION]
+    checks = dict(DEFAULT_CHECKS, final_error=derived.final_error, agreement=derived.final_error,
+                  invariant_tolerance=derived.invariant_tolerance)
     ref = model_ref if model_ref is not None else str(model)
     fail_list = "[" + ", ".join(f'"{m}"' for m in expected_to_fail) + "]"
     lines = [
@@ -700,7 +754,7 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         f"name = {json.dumps(name)}",
         f"description = {json.dumps(f'{model.name}, ' + state.source.split(':')[0] + (', torque free' if own is None else ', with wheels' if body.wheels else ', a top under gravity'))}",
         f"model = {json.dumps(ref)}   # the MJCF file (relative to this file)",
-        f"duration = {MODEL_DURATION!r}   # [s]",
+        f"duration = {duration!r}   # [s], derived: {derived.why['duration']}",
         "",
         "[initial]",
         f"# {state.source}",
@@ -719,18 +773,20 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         "[study]",
         f"reference = \"{reference}\"   # \"exact\": the closed form (torque free, Lagrange's top, the axisymmetric gyrostat); else \"dop853\" "
         "or \"fine\"",
-        f"steps = {_toml_list(steps)}   # [s], the full study",
-        f"quick_steps = {_toml_list(quick)}   # [s], --quick",
+        f"steps = {_toml_list(derived.steps)}   # [s], the full study; derived: {derived.why['steps']}",
+        f"quick_steps = {_toml_list(derived.quick_steps)}   # [s], --quick; derived: {derived.why['quick_steps']}",
         f"tolerances = {_toml_list(DEFAULT_TOLERANCES)}   # an adaptive method's ladder (relative tolerances)",
         f"quick_tolerances = {_toml_list(QUICK_TOLERANCES)}",
-        f"adaptive_step = {default_adaptive_step(state.omega0, MODEL_DURATION)!r}   # [s], an adaptive method's output "
+        f"adaptive_step = {default_adaptive_step(state.omega0, duration)!r}   # [s], an adaptive method's output "
         f"step (it turns the body by at most {ADAPTIVE_TURN:g} rad at the initial rate)",
         "# methods = [\"lie-rkmk4\", \"mujoco-rk4\"]   # every method when left out (xcheck list)",
         "reference_method = \"lie-rkmk4\"   # for reference = \"fine\"",
         "reference_dt = 0.0001   # [s], for reference = \"fine\"",
         "",
         "[checks]",
-        *(f"{k} = {DEFAULT_CHECKS[k]!r}   # {why}" for k, why in _CHECK_HELP.items()),
+        *(f"{k} = {checks[k]!r}   # {why}" + (f"; derived: {derived.why['final_error']}"
+                                               if k in ("final_error", "agreement", "invariant_tolerance") else "")
+          for k, why in _CHECK_HELP.items()),
         f"expected_to_fail = {fail_list}",
         "",
     ]

@@ -1,0 +1,266 @@
+"""Study defaults derived from the body (issue 36): the steps, the quick steps, the duration of a model alone and the
+checks' limits, for a scenario that leaves them out — instead of one ladder for a body turning at 0.01 rad/s and one
+turning at 100 rad/s.
+
+:func:`derive` measures the motion it is given, cheaply and without any engine:
+
+* the **coarsest step** turns the body by at most :data:`TURN_PER_STEP` rad at its fastest rate (the compiled
+  DOP853 sampled over the duration), a power of two;
+* the **finest step** is where every fourth-order method of ours reaches the round-off floor: each is run once
+  (compiled) at a coarse step against DOP853, and the worst error extrapolated at order 4 down to :data:`FLOOR`; and
+  at most the finest quick step, so that the first-order integrators' range is in the full study too (at most
+  :data:`MAX_STEPS` steps a run, at least :data:`MIN_LADDER` steps in the ladder);
+* the **quick steps** lie inside a first-order integrator's asymptotic range: a semi-implicit Euler pilot (MuJoCo's
+  ``Euler``: the rate first, then the attitude with the new rate) over a window of at most :data:`PILOT_STEPS` steps
+  (shorter, or at a smaller step, until its error is within 0.05 rad) gives the first-order error's constant,
+  extrapolated linearly to the duration; the coarsest quick step is the largest power of two whose extrapolated
+  error over the duration is at most :data:`QUICK_ERROR`, then four halvings;
+* the **duration** of a model alone shows its own motion: three of its own periods (:func:`xcheck.reference.own_period`:
+  a nutation, a tumble, a body cone), on the 1-2-5 series, between 1 s and 1000 s, and at most :data:`MAX_TURN` rad
+  turned; one period where the quick steps would not fit in :data:`MAX_STEPS` steps over three;
+* the **limits** are consistent with the floor the finest step can reach: ``final_error``, ``agreement`` and
+  ``invariant_tolerance`` are 1e-9 or 100 times the floor predicted there (round-off grows with the steps and the
+  angle turned), whichever is larger.
+
+Each value comes with the sentence that says how it was derived (``why``): ``xcheck init`` writes them as comments,
+the report states them among the assumptions."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import rotations as rot
+
+__all__ = ["StudyDefaults", "derive", "TURN_PER_STEP", "FLOOR", "QUICK_ERROR", "MAX_STEPS"]
+
+#: The coarsest step turns the body by at most this [rad] at its fastest rate.
+TURN_PER_STEP = 0.5
+#: The fourth-order methods' round-off floor the finest step reaches [rad].
+FLOOR = 1e-12
+#: The coarsest quick step keeps a first-order integrator's error over the duration within this [rad]: well inside
+#: the small-error regime (a T-handle tumbling at 20 rad/s: MuJoCo's implicit integrator's local order is 0.91 there,
+#: 0.68 at 1e-2 rad).
+QUICK_ERROR = 3e-3
+#: At most this many steps in a run of the ladder (the finest: MuJoCo's step costs ~4 us) ...
+MAX_STEPS = 2**16
+#: ... and at least this many steps in the full ladder, at most MAX_LADDER (seed 004's study has 12).
+MIN_LADDER, MAX_LADDER = 6, 14
+#: The first-order pilot's steps (a Python loop: ~15 us a step).
+PILOT_STEPS = 2048
+#: A model alone's duration turns the body by at most this [rad] at its initial rate (three of its own periods,
+#: else).
+MAX_TURN = 3000.0
+#: Beyond this turn [rad] over the duration, nothing is derived (:func:`derive` refuses: the seed's defaults stay).
+MAX_DERIVE_TURN = 1e5
+
+
+@dataclass
+class StudyDefaults:
+    """What :func:`derive` found: ``steps`` (coarse to fine) and ``quick_steps`` [s], ``duration`` [s] (the one given,
+    or derived), the checks' limits ``final_error`` (also ``agreement``) [rad] and ``invariant_tolerance``, and ``why``:
+    key -> how it was derived, in words."""
+
+    steps: tuple
+    quick_steps: tuple
+    duration: float
+    final_error: float
+    invariant_tolerance: float
+    why: dict = field(default_factory=dict)
+
+
+def _power_of_two_below(x: float) -> float:
+    return 2.0 ** math.floor(math.log2(x))
+
+
+def _nice_up(x: float) -> float:
+    """``x`` rounded up on the 1-2-5 series."""
+    k = math.floor(math.log10(x))
+    for m in (1, 2, 5, 10):
+        if m * 10.0**k >= x * (1 - 1e-12):
+            return m * 10.0**k
+    return 10.0 ** (k + 1)
+
+
+def _ladder(top: float, bottom: float) -> tuple:
+    n = max(1, int(round(math.log2(top / bottom))) + 1)
+    return tuple(top / 2**k for k in range(n))
+
+
+def derive(inertia, q0, omega0, duration: float | None, torque=None) -> StudyDefaults:
+    """The defaults of a study of this motion (see the module docstring). ``duration`` None: a model alone's, derived
+    too. ``inertia`` (3, 3) [kg m^2], ``q0`` [w, x, y, z] body -> world, ``omega0`` [rad/s] body frame, ``torque`` a
+    :class:`~xcheck.fields.TorqueModel` or None. ValueError saying why where nothing can be derived (a motion of
+    more than :data:`MAX_DERIVE_TURN` rad)."""
+    from .integrators.dop853 import dop853_at
+    from .reference import own_period
+
+    I = np.asarray(inertia, dtype=float)
+    q0, omega0 = np.asarray(q0, dtype=float), np.asarray(omega0, dtype=float)
+    why = {}
+    given = duration is not None
+    candidates = _Candidates([float(duration)]) if given else _durations(own_period(I, q0, omega0, torque), omega0)
+    span = candidates[0]
+    turned = float(np.linalg.norm(omega0)) * span
+    if turned > MAX_DERIVE_TURN:
+        raise ValueError(f"the body turns {turned:.3g} rad over {span:g} s: too fast to derive steps from (at most "
+                         f"{MAX_DERIVE_TURN:g} rad)")
+    try:
+        _, w = dop853_at(I, q0, omega0, span, np.linspace(0.0, span, 65), torque=torque, rtol=1e-10, atol=1e-12,
+                         max_steps=200_000)
+    except RuntimeError as exc:
+        raise ValueError(f"its motion could not be sampled to derive steps from ({exc})") from None
+    fastest = float(np.max(np.linalg.norm(w, axis=1)))
+    if fastest == 0.0:  # at rest: nothing to resolve (the study says it is vacuous)
+        duration = candidates[-1]
+        top = _power_of_two_below(duration / 4)
+        steps = _ladder(top, top / 2 ** (MIN_LADDER - 1))
+        return StudyDefaults(steps, steps[-5:], duration, 1e-9, 1e-9,
+                             {**({} if given else {"duration": f"{duration:g} s: the body is at rest"}),
+                              "steps": f"{_label(steps[0])} … {_label(steps[-1])} s: the body is at rest (any steps)",
+                              "quick_steps": f"{_label(steps[-5])} … {_label(steps[-1])} s: the body is at rest",
+                              "final_error": "1e-09 rad"})
+
+    # a first-order pilot (semi-implicit Euler, MuJoCo's) over a window in its small-error regime: its error per
+    # second of duration and per second of step (the error grows about linearly with time: a phase error)
+    pilot = _power_of_two_below(TURN_PER_STEP / fastest) / 8
+    window = min(span, PILOT_STEPS * pilot)
+    for _ in range(8):  # errors saturate at pi: a shorter window, else a smaller step
+        error1 = _euler_pilot(I, q0, omega0, window, pilot, torque)
+        if error1 <= 0.05:
+            break
+        if window / 4 >= 64 * pilot:
+            window /= 4
+        else:
+            pilot /= 2
+            window = min(window, PILOT_STEPS * pilot)
+    rate1 = error1 / (window * pilot)
+
+    def quick_top(T):  # the coarsest quick step whose first-order error over T stays within QUICK_ERROR
+        return _power_of_two_below(QUICK_ERROR / (rate1 * T)) if rate1 > 0 else np.inf
+
+    if not given:  # the longest candidate whose quick ladder fits in MAX_STEPS steps a run, else the shortest
+        fits = [T for T in candidates if 16 * T / min(quick_top(T), T / 4) <= MAX_STEPS]
+        duration = fits[0] if fits else candidates[-1]
+        why["duration"] = f"{duration:g} s: {candidates.text}" + (
+            "" if duration == candidates[0] else
+            f"; {candidates[0]:g} s shortened so that a first-order integrator's quick steps fit in {MAX_STEPS} steps "
+            "a run" if fits else f"; one period only: a first-order integrator's quick steps need more than {MAX_STEPS} "
+            "steps a run over three (and over one: its finest quick step is the finest within them)")
+    duration = float(duration)
+    top = min(_power_of_two_below(TURN_PER_STEP / fastest), _power_of_two_below(duration / 4))
+    smallest = 2.0 ** math.ceil(math.log2(duration / MAX_STEPS))  # the finest step within MAX_STEPS a run
+
+    # the quick steps: inside the first-order pilot's small-error regime over the duration
+    qt = max(min(quick_top(duration), top), 16 * smallest)
+    quick = _ladder(qt, qt / 16)
+
+    # the finest step: our fourth-order methods once each (in their small-error regime), the worst extrapolated at
+    # order 4 to the floor; and at least the finest quick step (the first-order integrators' range)
+    probe = top
+    for _ in range(4):
+        error4, worst = _fourth_order_pilot(I, q0, omega0, duration, probe, torque)
+        if error4 < 1e-2 or probe / 4 < smallest:
+            break
+        probe /= 4
+    finest = probe * (FLOOR / error4) ** 0.25 if 0 < error4 < np.inf else probe
+    finest = max(_power_of_two_below(min(finest, top, quick[-1])), smallest)
+    if round(math.log2(top / finest)) + 1 < MIN_LADDER:
+        finest = max(top / 2 ** (MIN_LADDER - 1), smallest)
+    steps = _ladder(top, finest)[-MAX_LADDER:]
+    why["steps"] = (f"{_label(steps[0])} … {_label(steps[-1])} s: the coarsest turns the body by at most "
+                    f"{TURN_PER_STEP:g} rad at its fastest rate ({fastest:.3g} rad/s); the finest is where our "
+                    f"fourth-order methods reach {FLOOR:g} rad (the worst, {worst}, was {error4:.2g} rad at "
+                    f"{_label(probe)} s, extrapolated at order 4), and at most the finest quick step"
+                    + (f", or the finest within {MAX_STEPS} steps a run" if steps[-1] == smallest else ""))
+    why["quick_steps"] = (f"{_label(quick[0])} … {_label(quick[-1])} s: a first-order integrator's error over the "
+                          f"duration stays within {QUICK_ERROR:g} rad from the coarsest (a semi-implicit Euler pilot, "
+                          f"MuJoCo's, {error1:.2g} rad over {window:.3g} s at {_label(pilot)} s, extrapolated linearly)"
+                          + (f"; the finest within {MAX_STEPS} steps a run" if quick[-1] == smallest else ""))
+
+    # the limits, from the floor the finest step can reach (round-off grows with the steps and the turn)
+    n = duration / steps[-1]
+    floor = max(FLOOR, np.finfo(float).eps * fastest * duration * math.sqrt(n))
+    limit = max(1e-9, _nice_up(100 * floor))
+    why["final_error"] = (f"{limit:g} rad: 1e-9, or 100 times the round-off floor at the finest step "
+                          f"({floor:.2g} rad predicted: eps x the turn x sqrt(steps)), whichever is larger")
+    return StudyDefaults(steps, quick, duration, limit, limit, why)
+
+
+class _Candidates(list):
+    """A model alone's durations to choose from, longest first, and how they came (``text``)."""
+
+    text = ""
+
+
+def _durations(period, omega0) -> _Candidates:
+    """Three of the body's own periods, else one (each on the 1-2-5 series, between 1 s and 1000 s, turning at most
+    :data:`MAX_TURN` rad); 10 s where no closed form knows its period."""
+    out = _Candidates()
+    if period is None or not np.isfinite(period):
+        out.append(10.0)
+        out.text = "no closed form knows this motion's own period"
+        return out
+    rate = float(np.linalg.norm(omega0))
+    for n in (3, 1):
+        T = min(max(_nice_up(n * period), 1.0), 1000.0)
+        if rate * T > MAX_TURN and T > 1.0:
+            T = max(1.0, _power_of_two_below(MAX_TURN / rate))
+        if T not in out:
+            out.append(T)
+    out.text = (f"three of its own periods ({period:.3g} s: a nutation, a tumble or a body cone), on the 1-2-5 series"
+                f", at most {MAX_TURN:g} rad turned")
+    return out
+
+
+def _label(dt: float) -> str:
+    from .trajectory import step_label
+
+    return step_label(dt)
+
+
+#: The fourth-order methods of ours whose worst error sets the finest step (euler-rk4 aside: its singularities).
+PILOT_METHODS = ("lie-rkmk4", "formulation-1", "formulation-2", "lie-cf4", "dcm-rk4", "gibbs-rk4", "rotvec-rk4",
+                 "mrp-rk4")
+
+
+def _fourth_order_pilot(I, q0, omega0, duration: float, dt: float, torque) -> tuple[float, str]:
+    """The largest attitude error [rad] over ``duration`` at ``dt`` among :data:`PILOT_METHODS` (compiled: a few
+    milliseconds), against DOP853, and which method had it."""
+    from .integrators import integrate
+    from .integrators.dop853 import dop853_at
+
+    worst, name, q_ref = -1.0, "", None
+    for method in PILOT_METHODS:
+        traj = integrate(method, I, q0, omega0, dt=dt, duration=duration, torque=torque)
+        if q_ref is None or len(q_ref) != len(traj.t):
+            q_ref, _ = dop853_at(I, q0, omega0, duration, traj.t, torque=torque, rtol=2.5e-14, atol=2.5e-16)
+        error = float(np.max(rot.attitude_error(traj.q, q_ref[:len(traj.t)]))) if traj.ok else np.inf
+        if error > worst:
+            worst, name = error, method
+    return worst, name
+
+
+def _euler_pilot(I, q0, omega0, duration: float, dt: float, torque) -> float:
+    """The largest attitude error [rad] over ``duration`` of a semi-implicit Euler run at ``dt`` (MuJoCo's ``Euler``
+    on a rotating body: the body rate first, ``w += dt I^-1 (tau - w x I w)``, then the attitude with the new rate,
+    ``q = q exp(dt w)``) against DOP853 at its steps."""
+    from .integrators.dop853 import dop853_at
+
+    Iinv = np.linalg.inv(I)
+    n = int(math.ceil(duration / dt - 1e-9))
+    t = np.minimum(np.arange(n + 1) * dt, duration)
+    q, w = np.array(q0, dtype=float), np.array(omega0, dtype=float)
+    qs = np.empty((n + 1, 4))
+    qs[0] = q
+    for k in range(n):
+        h = t[k + 1] - t[k]
+        tau = np.zeros(3) if torque is None else np.asarray(torque(t[k], q, w), dtype=float)
+        w = w + h * (Iinv @ (tau - np.cross(w, I @ w)))
+        q = rot.quat_mul(q, rot.rotvec_to_quat(h * w))
+        q = q / np.linalg.norm(q)
+        qs[k + 1] = q
+    q_ref, _ = dop853_at(I, q0, omega0, duration, t, torque=torque, rtol=1e-12, atol=1e-14)
+    return float(np.max(rot.attitude_error(qs, q_ref)))
