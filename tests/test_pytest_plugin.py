@@ -229,3 +229,15 @@ def test_a_model_alone_is_collected_as_a_scenario(pytester):
     result.assert_outcomes(passed=2)  # quick: runs and order
     out = result.stdout.str()
     assert "xcheck_sat.xml::lie-rkmk4::order PASSED" in out and "xcheck_sat.xml::lie-rkmk4::runs PASSED" in out
+
+
+def test_a_check_that_cannot_decide_is_a_skipped_item_that_says_why(pytester):
+    """Issue 36: INCONCLUSIVE is neither passed nor failed: a body at rest (a vacuous study) makes every item a skip
+    whose reason says 'INCONCLUSIVE: vacuous', shown by -ra; the run passes (no failure)."""
+    path = pytester.path / "xcheck_still.toml"
+    path.write_text(f'name = "still"\nmodel = "{(BUNDLED_MODELS / "tumbler.xml").as_posix()}"\nduration = 2.0\n'
+                    '[initial]\nquaternion = [1, 0, 0, 0]\nangular_velocity = [0, 0, 0]\n[study]\n'
+                    'methods = ["lie-rkmk4"]\nquick_steps = [0.25, 0.125, 0.0625]\n')
+    result = _run(pytester, "-ra")
+    result.assert_outcomes(skipped=2)
+    assert "INCONCLUSIVE: vacuous: the body is at rest" in result.stdout.str()

@@ -6,13 +6,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["RigidBody", "validate_inertia", "principal_axes", "TRIANGLE_RTOL"]
+__all__ = ["RigidBody", "validate_inertia", "principal_axes", "TRIANGLE_RTOL", "MOMENT_RANGE"]
 
 #: Relative slack allowed in the triangle inequality ``I_i <= I_j + I_k``, so that thin plates
 #: (``I_3 = I_1 + I_2`` exactly, like the seed 001 gyroscope) pass after rounding.
 TRIANGLE_RTOL = 1e-9
 
 _NAMES = ("I1", "I2", "I3")
+#: Principal moments [kg m^2] xcheck integrates: a dust grain's to a moon's. Beyond, the energy and momentum products
+#: of the references under- or overflow (1e-300 once ran a sweep's cell into NaN warnings instead of a refusal).
+MOMENT_RANGE = (1e-30, 1e40)
 
 
 def validate_inertia(inertia, *, name: str = "inertia") -> np.ndarray:
@@ -60,6 +63,10 @@ def _validate_inertia(inertia, name: str) -> np.ndarray:
     for i in range(3):
         if not moments[i] > 0:
             raise ValueError(f"{name}: principal moment {_NAMES[i]} = {moments[i]:g} kg m^2 must be positive")
+        if not MOMENT_RANGE[0] <= moments[i] <= MOMENT_RANGE[1]:
+            raise ValueError(f"{name}: principal moment {_NAMES[i]} = {moments[i]:g} kg m^2 is outside "
+                             f"{MOMENT_RANGE[0]:g} … {MOMENT_RANGE[1]:g} kg m^2, where the dynamics' products "
+                             "(momentum squared, energy times a moment) stay within double precision")
     for i in range(3):
         j, k = (i + 1) % 3, (i + 2) % 3
         if moments[i] > (moments[j] + moments[k]) * (1 + TRIANGLE_RTOL):

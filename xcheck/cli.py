@@ -664,8 +664,11 @@ def _cmd_sweep(args) -> int:
 def _cmd_init(args) -> int:
     """The scenario file an MJCF file stands for, every key present and commented, to edit."""
     from .report.io import check_output_file, write_text_atomic
-    from .scenario import is_model_arg, model_scenario_text, split_model_arg
+    from .scenario import foreign_model, is_model_arg, model_scenario_text, split_model_arg
 
+    foreign = foreign_model(args.model)
+    if foreign:
+        raise UsageError(f"MODEL: {foreign}")
     if not is_model_arg(args.model):
         raise UsageError(f"MODEL: expected an MJCF file (.xml, optionally #KEYFRAME), got {args.model!r}")
     path, keyframe = split_model_arg(args.model)

@@ -167,8 +167,8 @@ def derive(inertia, q0, omega0, duration: float | None, torque=None) -> StudyDef
         probe /= 4
     finest = probe * (FLOOR / error4) ** 0.25 if 0 < error4 < np.inf else probe
     finest = max(_power_of_two_below(min(finest, top, quick[-1])), smallest)
-    if round(math.log2(top / finest)) + 1 < MIN_LADDER:
-        finest = max(top / 2 ** (MIN_LADDER - 1), smallest)
+    if round(math.log2(top / finest)) + 1 < MIN_LADDER:  # a ladder long enough for an order, beyond the cap if need be
+        finest = top / 2 ** (MIN_LADDER - 1)
     steps = _ladder(top, finest)[-MAX_LADDER:]
     why["steps"] = (f"{_label(steps[0])} … {_label(steps[-1])} s: the coarsest turns the body by at most "
                     f"{TURN_PER_STEP:g} rad at its fastest rate ({fastest:.3g} rad/s); the finest is where our "

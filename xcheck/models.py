@@ -237,6 +237,9 @@ class InitialState:
     wheel_speeds: tuple = ()
 
 
+#: The keyframe name that asks for the model's own pose at :data:`DEFAULT_RATE` (``xcheck init --keyframe none``,
+#: ``MODEL.xml#none``), unless the model has a keyframe of that name.
+NO_KEYFRAME = "none"
 #: The body rate [rad/s], body frame, of a model that has no keyframe: about every axis, the largest about the
 #: third, so that a torque-free study exercises the full Euler equations (stated in the report).
 DEFAULT_RATE = (0.1, 0.5, 1.0)
@@ -252,22 +255,29 @@ def initial_state(path, keyframe: str | None = None) -> InitialState:
     where = str(path)
     names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, k) or f"#{k}" for k in range(model.nkey))
     da, qs, ws = body.dof_adr, body.quat_slice, body.rate_slice
-    if keyframe is not None and keyframe not in names:
+    own_pose = keyframe == NO_KEYFRAME and NO_KEYFRAME not in names  # "none": the model's own pose, a default rate
+    if keyframe is not None and not own_pose and keyframe not in names:
         have = f"its keyframes: {', '.join(names)}" if names else "it has no <keyframe>"
-        raise ModelError(f"{where}: no keyframe named {keyframe!r} ({have})")
-    if not names:
+        raise ModelError(f"{where}: no keyframe named {keyframe!r} ({have}); {NO_KEYFRAME!r} asks for the body's own "
+                         "pose at the default rate")
+    if not names or own_pose:
         q0 = body.from_joint(np.asarray(model.qpos0[qs], dtype=float))
         return InitialState(q0, np.asarray(DEFAULT_RATE, dtype=float),
-                            f"no <keyframe>: the body's pose in the MJCF and the default body rate "
+                            f"{'no <keyframe>' if not names else 'keyframe none asked for'}: the body's pose in the MJCF "
+                            f"and the default body rate "
                             f"{list(DEFAULT_RATE)} rad/s (body frame)" + (", the wheels at rest relative to it"
                                                                           if body.wheels else ""),
                             None, names, body=body, wheel_speeds=tuple(0.0 for _ in body.wheels))
     k = names.index(keyframe) if keyframe is not None else 0
     qpos, qvel = model.key_qpos[k], model.key_qvel[k]
     q_joint = np.asarray(qpos[qs], dtype=float)
+    written = _written_key_quaternion(path, k, qs)  # MuJoCo's compiler makes a zero one the identity, silently
+    if written is not None:
+        q_joint = written if not np.any(written) else q_joint
     if not np.all(np.isfinite(q_joint)) or np.linalg.norm(q_joint) == 0:
         raise ModelError(f"{where}: keyframe {names[k]!r}: the {body.joint} joint's quaternion {q_joint.tolist()} "
-                         "cannot be normalised")
+                         "cannot be normalised (MuJoCo's compiler would take the identity for it): give the attitude "
+                         "as a unit quaternion [w x y z]")
     q0 = body.from_joint(q_joint / np.linalg.norm(q_joint)) if body.joint == "ball" else q_joint
     omega0 = np.asarray(qvel[ws], dtype=float)
     notes = []
@@ -283,7 +293,37 @@ def initial_state(path, keyframe: str | None = None) -> InitialState:
                         names, tuple(notes), body=body, wheel_speeds=speeds)
 
 
+def _root_element(path) -> str | None:
+    """The root element's name of an XML file (None where it cannot be read: MuJoCo's parser then says why)."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        for _, element in ET.iterparse(path, events=("start",)):
+            return element.tag
+    except (ET.ParseError, OSError):
+        return None
+    return None
+
+
+def _written_key_quaternion(path, k: int, qs: slice) -> np.ndarray | None:
+    """The quaternion slots ``qs`` of the ``k``-th ``<key>`` as written in the MJCF file itself (before MuJoCo's
+    compiler normalises them), or None where the file does not say (a ``<key>`` in an included file, no ``qpos``)."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        keys = [key for frame in ET.parse(path).getroot().iter("keyframe") for key in frame.iter("key")]
+        values = np.array(keys[k].get("qpos", "").split(), dtype=float)
+    except (ET.ParseError, OSError, IndexError, ValueError):
+        return None
+    return values[qs] if len(values) >= qs.stop else None
+
+
 def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
+    root = _root_element(path)
+    if root is not None and root != "mujoco":  # MuJoCo would read a URDF too, and build a robot of it
+        what = "a URDF robot description (<robot>)" if root == "robot" else f"an XML file whose root is <{root}>"
+        raise ModelError(f"{where}: {what}, not an MJCF model (<mujoco>): convert it with MuJoCo: m = "
+                         "mujoco.MjModel.from_xml_path(FILE); mujoco.mj_saveLastXML('model.xml', m)")
     try:
         model = mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:  # MuJoCo's parse/compile error, which names the line
@@ -299,6 +339,9 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
     turning = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL))
     hinge = int(mujoco.mjtJoint.mjJNT_HINGE)
     roots = [j for j in range(model.njnt) if int(model.jnt_type[j]) in turning]
+    robot = _multibody(model, roots, hinge)
+    if robot:
+        refuse(robot)
     for j in range(model.njnt):
         if int(model.jnt_type[j]) not in (*turning, hinge):
             kind = mujoco.mjtJoint(model.jnt_type[j]).name.removeprefix("mjJNT_").lower()
@@ -351,10 +394,15 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
             refuse(f"contacts are enabled and geoms '{pair[0]}' and '{pair[1]}' can collide: add "
                    "<flag contact=\"disable\"/> to <option>, or set their contype/conaffinity to 0")
     gravity = np.zeros(3)
-    if np.any(model.opt.gravity != 0) and joint == "free":
+    gravity_off = bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY)  # <flag gravity="disable"/>
+    if np.any(model.opt.gravity != 0) and joint == "free" and not gravity_off:
         notes.append(f"gravity {model.opt.gravity.tolist()} m/s^2 switched off: a uniform field exerts no torque "
                      "about the centre of mass")
         model.opt.gravity[:] = 0.0
+    elif joint == "ball" and gravity_off:  # MuJoCo exerts none: the top turns torque free about its pivot
+        if np.any(model.opt.gravity != 0):
+            notes.append("gravity disabled by the model's <flag gravity=\"disable\"/>: the top turns torque free "
+                         "about its pivot")
     elif joint == "ball":
         gravity = model.opt.gravity.copy()
 
@@ -378,6 +426,8 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
             notes.append(f"a gyrostat: {len(wheels)} axisymmetric wheel(s) ({', '.join(w.name for w in wheels)}); "
                          "the inertia is the whole body's about its centre of mass less each wheel's axial moment, "
                          "the wheels' momentum a torque of the model's own")
+        notes += [f"wheel '{w.name}' has a motor but no <numeric name=\"{PULSE_NUMERIC}ACTUATOR\"> commands it: the "
+                  "motor exerts nothing, and the wheel turns freely" for w in wheels if w.actuator >= 0 and w.pulse is None]
     centre, reference = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
     if joint == "ball":  # a top: it turns about the pivot, where the joint is (body frame)
         centre = com - model.jnt_pos[jnt]
@@ -407,6 +457,32 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
     except ValueError as exc:
         raise ModelError(f"{where}: body '{body_name}': {exc}") from None
     return model, body
+
+
+def _multibody(model, roots, hinge) -> str | None:
+    """Why a model is a multi-body one (a robot, a chain, several free bodies), or None: more than one moving body,
+    and not one free or ball body whose other joints are hinges of bodies that hang from it (or from a part welded to
+    it): a gyrostat's wheels, which :func:`_wheels` checks in detail."""
+    moving = [b for b in range(1, model.nbody) if model.body_jntnum[b] > 0]
+    if len(moving) < 2:
+        return None
+    kinds: dict = {}
+    for j in range(model.njnt):
+        kind = mujoco.mjtJoint(model.jnt_type[j]).name.removeprefix("mjJNT_").lower()
+        kinds[kind] = kinds.get(kind, 0) + 1
+    counted = ", ".join(f"{n} {k}" for k, n in kinds.items())
+    why = (f"a multi-body model: {len(moving)} moving bodies and {model.njnt} joints ({counted}); xcheck checks one "
+           "rigid body turning on a free or ball joint (with, at most, balanced wheels on hinges of it)")
+    if len(roots) != 1:
+        return why
+    root = int(model.jnt_bodyid[roots[0]])
+    for j in range(model.njnt):
+        if j == roots[0]:
+            continue
+        b = int(model.jnt_bodyid[j])
+        if int(model.jnt_type[j]) != hinge or model.body_weldid[int(model.body_parentid[b])] != root:
+            return why
+    return None
 
 
 def body_poses(model, root: int, wheels=()) -> dict:

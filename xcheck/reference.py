@@ -855,7 +855,8 @@ def check_exact(inertia, q0, omega0, duration: float, torque=None, times=None) -
     conditioning = np.finfo(float).eps * _sensitivity(run, I, omega0)
     uncertainty = max(SPREAD_FACTOR * spread, CONDITIONING_ULPS * conditioning)
     bound = max(GUARD_BOUND, uncertainty)
-    found = dict(difference=difference, at_time=at_time, bound=bound, uncertainty=uncertainty, conditioning=conditioning)
+    found = dict(difference=difference, at_time=at_time, bound=float(bound), uncertainty=float(uncertainty),
+                 conditioning=float(conditioning))
     if difference <= bound:
         return ReferenceCheck(kind, len(times), passed=True, **found)
     return fallback(f"it is {difference:.2g} rad from DOP853 at t = {at_time:.6g} s, beyond the bound {bound:.1e} rad "

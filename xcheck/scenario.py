@@ -260,6 +260,9 @@ def load_scenario(path, *, check_model: bool = True) -> Scenario:
     if is_model_arg(path):
         raise ScenarioError(f"{path}: an MJCF file, not a scenario file: pass it where a scenario goes (xcheck "
                             "report MODEL.xml), or write its scenario file with xcheck init MODEL.xml")
+    foreign = foreign_model(path)
+    if foreign:
+        raise ScenarioError(foreign)
     try:
         raw = path.read_bytes()
     except OSError as exc:
@@ -598,12 +601,45 @@ def bundled_scenarios() -> dict[str, Path]:
     return {p.stem: p for p in sorted(SCENARIO_DIR.glob("*.toml"))}
 
 
+#: Model formats xcheck does not read, by file ending: what they are, and how MuJoCo makes MJCF of them.
+FOREIGN_MODELS = {".urdf": "a URDF robot description", ".sdf": "an SDF (Gazebo) model", ".mjb": "a compiled MuJoCo model",
+                  ".usd": "a USD scene", ".usda": "a USD scene", ".dae": "a COLLADA mesh", ".stl": "a mesh",
+                  ".obj": "a mesh"}
+_TO_MJCF = ("xcheck reads MJCF (.xml); MuJoCo converts a URDF: m = mujoco.MjModel.from_xml_path('robot.urdf'); "
+            "mujoco.mj_saveLastXML('robot.xml', m), then give the body a <freejoint/>")
+
+
+def foreign_model(path) -> str | None:
+    """Why ``path`` (given where a scenario goes) is a model xcheck does not read — a URDF, an SDF, a compiled or
+    mesh file, by its ending or, for an XML file, its root element — or None."""
+    path = Path(str(path).partition("#")[0])
+    suffix = path.suffix.lower()
+    if suffix in FOREIGN_MODELS:
+        what = FOREIGN_MODELS[suffix]
+    elif suffix in ("", ".xml") or not path.is_file():
+        return None
+    else:
+        try:
+            with path.open("rb") as f:
+                head = f.read(512).lstrip(b"\xef\xbb\xbf \t\r\n")
+        except OSError:
+            return None
+        if not head.startswith(b"<"):
+            return None
+        what = "a URDF robot description" if b"<robot" in head else "an XML file"
+    return f"{path}: {what}, not an MJCF model nor a scenario file: {_TO_MJCF}"
+
+
 def resolve_scenario(name_or_path) -> Scenario:
     """A bundled scenario by name, a scenario file by path, or an MJCF file alone (``MODEL.xml``, or
-    ``MODEL.xml#KEYFRAME``: :func:`scenario_from_model`)."""
+    ``MODEL.xml#KEYFRAME``: :func:`scenario_from_model`); a URDF or another model format is refused, naming it
+    (:func:`foreign_model`)."""
     bundled = bundled_scenarios()
     if str(name_or_path) in bundled:
         return load_scenario(bundled[str(name_or_path)])
+    foreign = foreign_model(name_or_path)
+    if foreign:
+        raise ScenarioError(foreign)
     if is_model_arg(name_or_path):
         return scenario_from_model(name_or_path)
     path = Path(name_or_path)
@@ -662,14 +698,6 @@ def _euler_margins(inertia, q0, omega0, duration: float, torque=None, reference:
     return out
 
 
-def _idle_motors(body) -> list[str]:
-    """The motors on a model's wheels that exert nothing (no ``xcheck_pulse`` commands them): said, not silent."""
-    from .models import PULSE_NUMERIC
-
-    return [f"wheel '{w.name}' has a motor but no <numeric name=\"{PULSE_NUMERIC}ACTUATOR\"> commands it: the motor "
-            "exerts nothing and the wheel turns freely" for w in body.wheels if w.actuator >= 0 and w.pulse is None]
-
-
 def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | None = None) -> tuple[str, tuple]:
     """The scenario file that the defaults for an MJCF file stand for, every key present and commented (what
     ``xcheck init`` writes and what ``xcheck report MODEL.xml`` runs), and the assumptions it makes, in words
@@ -685,7 +713,7 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
     except ModelError as exc:
         raise ScenarioError(str(exc)) from None
     body = state.body
-    stem = model.stem + (f"-{state.keyframe}" if keyframe is not None else "")
+    stem = model.stem + (f"-{state.keyframe or keyframe}" if keyframe is not None else "")
     name = re.sub(r"[^A-Za-z0-9_.-]+|\.{2,}", "-", stem).strip("-._")[:100] or "model"  # check_name's identifier
     from .reference import exact_why_not
 
@@ -720,7 +748,7 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
                        else "the exact heavy symmetric top (Lagrange's, closed form)")
         reference_words = (f"reference: {exact_words}" if reference == "exact"
                            else f"reference: DOP853 at rtol 1e-13 ({why_not})")
-    assumptions = [f"initial state: {state.source}", *state.notes, *body.notes, *_idle_motors(body),
+    assumptions = [f"initial state: {state.source}", *state.notes, *body.notes,
                    f"duration {derived.why['duration']}; {torque_words}", reference_words,
                    f"steps {derived.why['steps']}", f"quick steps {derived.why['quick_steps']}",
                    *([f"the checks' limits {derived.why['final_error']}"]
