@@ -22,7 +22,7 @@ from .._jit import njit
 from ..fields import TorqueModel
 from ..fields.kernel import torque_eval
 
-__all__ = ["dop853_dense", "dop853_at", "DenseSolution", "COMPILED_DOP853_STATUS"]
+__all__ = ["dop853_dense", "dop853_at", "DenseSolution", "COMPILED_DOP853_STATUS", "warm"]
 
 _S = _coefficients.N_STAGES  # 12
 _A = np.ascontiguousarray(_coefficients.A, dtype=float)  # (16, 16): the 12 stages, the step's end, 3 more for the dense output
@@ -309,3 +309,11 @@ def dop853_dense(inertia, q0, omega0, duration: float, *, torque=None, rtol: flo
     by the caller. RuntimeError naming the reason when the run stops (:data:`COMPILED_DOP853_STATUS`)."""
     steps, ts, yo, F, _ = _run(inertia, q0, omega0, duration, torque, rtol, atol, max_steps, True, np.zeros(0))
     return DenseSolution(ts, yo, F, steps, duration)
+
+
+def warm() -> None:
+    """Compile (or load from the cache) both kernels: one short run kept, one evaluated (every run has their one
+    signature)."""
+    inertia = np.diag([1.0, 2.0, 3.0])
+    dop853_dense(inertia, [1.0, 0.0, 0.0, 0.0], [0.1, 0.2, 0.3], 0.1)(np.array([0.05]))
+    dop853_at(inertia, [1.0, 0.0, 0.0, 0.0], [0.1, 0.2, 0.3], 0.1, [0.05])
