@@ -82,6 +82,15 @@ def _scenario_file(tmp_path, model, body, name="s"):
     return path
 
 
+def _at_the_seeds_quick_steps(tmp_path, model_text, rate, methods):
+    """A 10 s scenario of ``model_text`` at ``rate`` [rad/s], at seed 004's quick steps (1/64 ... 1/1024 s)."""
+    model = _write(tmp_path, "model.xml", model_text)
+    return _scenario_file(tmp_path, model, f'duration = 10.0\n[initial]\nquaternion = [1, 0, 0, 0]\n'
+                          f'angular_velocity = {list(map(float, rate))}\n[study]\nmethods = {json.dumps(methods)}\n'
+                          'quick_steps = [0.015625, 0.0078125, 0.00390625, 0.001953125, 0.0009765625]\n'
+                          'steps = [0.5, 0.25]\n')
+
+
 # ------------------------------------------------------------------------------------------------------
 # references right wherever they are used
 # ------------------------------------------------------------------------------------------------------
@@ -139,11 +148,7 @@ def test_steps_too_coarse_for_a_first_order_integrator_are_inconclusive_and_say_
     rad off at the finest (before: FAILED order). Now INCONCLUSIVE, exit 4, naming steps that would show the order;
     at the coarsest of those, its error is in the small-error regime (truth: the exact reference; within 0.02
     rad, the suggestion aims at 0.01)."""
-    model = _write(tmp_path, "box.xml", BOX)
-    scenario = _scenario_file(tmp_path, model, 'duration = 10.0\n[initial]\nquaternion = [1, 0, 0, 0]\n'
-                              'angular_velocity = [1, 2, 3]\n[study]\nmethods = ["mujoco-euler", "lie-rkmk4"]\n'
-                              'quick_steps = [0.015625, 0.0078125, 0.00390625, 0.001953125, 0.0009765625]\n'
-                              'steps = [0.5, 0.25]\n')
+    scenario = _at_the_seeds_quick_steps(tmp_path, BOX, [1, 2, 3], ["mujoco-euler", "lie-rkmk4"])
     assert main(["converge", str(scenario), "--quick", "--workers", "1"]) == 4
     out = capsys.readouterr().out
     line = next(l for l in out.splitlines() if "INCONCLUSIVE order:mujoco-euler" in l)
@@ -157,11 +162,7 @@ def test_steps_too_coarse_for_a_first_order_integrator_are_inconclusive_and_say_
 def test_a_pre_asymptotic_order_is_inconclusive_not_failed(tmp_path, capsys):
     """The T-handle tumbling at 20 rad/s, at the seed's quick steps: MuJoCo's implicit integrator's local orders rise
     0.47, 0.69, 0.83 toward 1 (before: FAILED order, 0.685). INCONCLUSIVE, with the observed value and the limit."""
-    model = _write(tmp_path, "t.xml", T_HANDLE)
-    scenario = _scenario_file(tmp_path, model, 'duration = 10.0\n[initial]\nquaternion = [1, 0, 0, 0]\n'
-                              'angular_velocity = [0.2, 20, 0.1]\n[study]\nmethods = ["mujoco-implicit", "lie-rkmk4"]\n'
-                              'quick_steps = [0.015625, 0.0078125, 0.00390625, 0.001953125, 0.0009765625]\n'
-                              'steps = [0.5, 0.25]\n')
+    scenario = _at_the_seeds_quick_steps(tmp_path, T_HANDLE, [0.2, 20, 0.1], ["mujoco-implicit", "lie-rkmk4"])
     assert main(["converge", str(scenario), "--quick", "--workers", "1"]) == 4
     out = capsys.readouterr().out
     assert ("INCONCLUSIVE order:mujoco-implicit: observed order 0.685; expected 1 (allowed 0.70 … 2.00)" in out

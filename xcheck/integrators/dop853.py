@@ -57,6 +57,19 @@ def _rhs(t, y, I, Iinv, kind, P, T, tau, out):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _stages(first, last, t, h, y, A, C, K, ytmp, I, Iinv, kind, P, T, tau):
+    """The stages ``first`` to ``last - 1`` of a step of ``h`` from ``(t, y)`` into the rows of ``K`` (row ``s`` from
+    the rows before it, by the tableau's row ``A[s]``)."""
+    for s in range(first, last):
+        for i in range(7):
+            acc = 0.0
+            for j in range(s):
+                acc += A[s, j] * K[j, i]
+            ytmp[i] = y[i] + h * acc
+        _rhs(t + C[s] * h, ytmp, I, Iinv, kind, P, T, tau, K[s])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _rms(x, scale):
     s = 0.0
     for i in range(x.shape[0]):
@@ -152,13 +165,7 @@ def _solve(y0, ends, rtol, atol, max_steps, I, Iinv, kind, P, T, A, C, B, E3, E5
                 h_abs = abs(h)
                 for i in range(n):
                     K[0, i] = f[i]
-                for s in range(1, S):
-                    for i in range(n):
-                        acc = 0.0
-                        for j in range(s):
-                            acc += A[s, j] * K[j, i]
-                        ytmp[i] = y[i] + h * acc
-                    _rhs(t + C[s] * h, ytmp, I, Iinv, kind, P, T, tau, K[s])
+                _stages(1, S, t, h, y, A, C, K, ytmp, I, Iinv, kind, P, T, tau)
                 for i in range(n):
                     acc = 0.0
                     for j in range(S):
@@ -199,13 +206,8 @@ def _solve(y0, ends, rtol, atol, max_steps, I, Iinv, kind, P, T, A, C, B, E3, E5
             k = steps if store else 0
             needed = store or (iq < t_query.shape[0] and t_query[iq] <= t_new)
             # the dense output's three extra stages and its coefficients (scipy's Dop853DenseOutput)
-            for s in range(S + 1, 16 if needed else S + 1):
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(s):
-                        acc += A[s, j] * K[j, i]
-                    ytmp[i] = y[i] + h * acc
-                _rhs(t + C[s] * h, ytmp, I, Iinv, kind, P, T, tau, K[s])
+            if needed:
+                _stages(S + 1, 16, t, h, y, A, C, K, ytmp, I, Iinv, kind, P, T, tau)
             if needed:
                 for i in range(n):
                     dy = y_new[i] - y[i]
