@@ -83,7 +83,7 @@ def bench_lines(tmp: Path) -> list[tuple[str, float, str, bool]]:
 GUARD_PROBE = """
 import time, warnings
 warnings.simplefilter("ignore")
-from xcheck.reference import check_exact, guard_times
+from xcheck.guard import check_exact, guard_times
 from xcheck.scenario import bundled_scenarios, resolve_scenario
 from xcheck.study.context import run_context
 cases = []

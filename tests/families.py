@@ -157,9 +157,8 @@ def _top(rng, family, theta, psi_dot, spin, theta_dot=0.0, phi=None):
 def top_steady(rng):
     """Steady precession, the axis 5 ... 175 deg from the vertical: ``c1 = 0`` of the cubic, a double root."""
     theta = np.radians(rng.uniform(5, 175))
-    A = None  # the spin that makes this precession rate steady: b = (beta + 2 u psi'^2) / (2 psi')
     case = _top(rng, "top-steady", theta, 1.0, 1.0)
-    A, C, mgl = case["A"], case["C"], case["mgl"]
+    A, C, mgl = case["A"], case["C"], case["mgl"]  # the spin that makes the precession steady: b = (beta + 2 u psi'^2) / (2 psi')
     psi_dot = _loguniform(rng, 0.3, 10) * rng.choice([-1, 1])
     u = np.cos(theta)
     beta = 2 * mgl / A
@@ -173,7 +172,7 @@ def _retop(rng, case, theta, psi_dot, spin, theta_dot=0.0):
     from xcheck.fields import GravityTorque
 
     torque = case["torque"]
-    I, centre = case["inertia"], torque.centre
+    centre = torque.centre
     e = centre / np.linalg.norm(centre)
     F = rot.frame_with_z(e)
     up = -torque.gravity / np.linalg.norm(torque.gravity)

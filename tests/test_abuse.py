@@ -153,7 +153,7 @@ def test_exact_asymmetric_reference_has_no_effort_to_bound():
 def test_the_guard_of_an_exact_reference_has_a_bounded_effort():
     """The guard's DOP853 (issue 36) is not run where the motion plainly needs more steps than its budget (1e7 rad
     turned, about 3e7 steps): the closed form is used unchecked, saying so."""
-    from xcheck.reference import check_exact
+    from xcheck.guard import check_exact
 
     check = check_exact(np.diag([1.0, 2.0, 3.0]), [1, 0, 0, 0], HUGE_W, 10.0)
     assert check.passed and not check.checked and "beyond its budget of 200000" in check.describe()

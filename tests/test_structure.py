@@ -11,7 +11,8 @@ import xcheck
 
 PACKAGE = Path(xcheck.__file__).resolve().parent
 #: The core: mathematics, integrators, references, metrics, fields (docs/architecture.md).
-CORE = ["rotations", "seeds", "body", "trajectory", "fields", "integrators", "reference", "metrics",
+CORE = ["rotations", "seeds", "body", "trajectory", "fields", "integrators", "reference", "elliptic", "guard",
+        "defaults", "metrics",
         "_jit", "paths", "results", "determination.methods", "determination.seed002", "league.boxes",
         "league.findings"]
 

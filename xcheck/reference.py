@@ -17,13 +17,14 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
-from scipy.special import ellipk, elliprf, elliprj
+from scipy.special import ellipk
 
 from . import rotations as rot
+from .elliptic import complete_k, elliptic_argument, legendre_pi
 from .body import principal_axes, validate_inertia
 from .trajectory import check_initial_state, continuous_quaternions
 
-__all__ = ["exact_torque_free", "exact_reference", "check_exact", "ReferenceCheck", "guard_times", "exact_kind", "GUARD_BOUND", "exact_why_not", "exact_gyrostat", "gyrostat_why_not", "lagrange_top", "lagrange_why_not", "dop853", "dop853_solution", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL",
+__all__ = ["exact_torque_free", "exact_reference", "exact_kind", "exact_why_not", "exact_gyrostat", "gyrostat_why_not", "lagrange_top", "lagrange_why_not", "dop853", "dop853_solution", "rigid_body_rhs", "EQUAL_MOMENTS_RTOL",
            "ReferenceFailure", "solve_bounded", "own_period"]
 
 #: Principal moments closer than this (relative to the largest) are equal (axisymmetry): the round-off of the
@@ -112,7 +113,7 @@ def _axisymmetric(J, axis, q0, w0, t):
 def _asymmetric(J, q0, w0, t):
     """Jacobi elliptic functions for the body rate; a 3-1-3 chart on a world frame whose z is the fixed
     angular momentum for the attitude, its precession angle in closed form (Legendre's third integral,
-    :func:`_pi_of`): exact at every time on its own, whatever the grid."""
+    :func:`~xcheck.elliptic.legendre_pi`): exact at every time on its own, whatever the grid."""
     # The parameters come from the moments' differences and the rates in exact rational arithmetic, rounded once:
     # h^2 - 2 E J2, which decides the motion near the intermediate axis's separatrix, is a difference of two
     # nearly equal terms there (in floating point it kept 1e-6 of its value at 1e-10 from the separatrix), and
@@ -147,13 +148,13 @@ def _asymmetric(J, q0, w0, t):
     s2 = s3 * np.sign(float(D32))  # from Euler's equations: w2 = s2 A2 sn keeps I2 w2' = (I3 - I1) w3 w1
     sn0, cn0 = w[1] / (s2 * A2), w[0] / A1
     r = np.hypot(sn0, cn0)
-    tau0 = _elliptic_argument(sn0 / r, cn0 / r, m1)
+    tau0 = elliptic_argument(sn0 / r, cn0 / r, m1)
     h = float(np.linalg.norm(J * w))
     # psi' = h (J1 w1^2 + J2 w2^2) / ((J1 w1)^2 + (J2 w2)^2) = h/J3 + h (J3 - J1) / (J1 J3 (1 - n sn^2)) with
     # n = J3 (J1 - J2) / (J1 (J3 - J2)) <= 0 (energy and momentum eliminate w1, w2; the same in either labelling):
     # psi = h t / J3 + h (J3 - J1) / (J1 J3 lam) [Pi(n; am tau) - Pi(n; am tau0)], tau = lam t + tau0
-    (sn, cn, dn), pi_t = _pi_of(n, m, m1, lam * t + tau0)
-    _, pi_0 = _pi_of(n, m, m1, np.array([tau0]))
+    (sn, cn, dn), pi_t = legendre_pi(n, m, m1, lam * t + tau0)
+    _, pi_0 = legendre_pi(n, m, m1, np.array([tau0]))
     psi = h * t / J3 + h * float(D31) / (J1 * J3 * lam) * (pi_t - pi_0[0])
     omega = np.stack([A1 * cn, s2 * A2 * sn, s3 * A3 * dn], axis=-1)
     Jw = omega * J
@@ -166,72 +167,6 @@ def _asymmetric(J, q0, w0, t):
     q_WH = rot.quat_mul(q_start, rot.quat_conj(rot.euler_to_quat([0.0, theta0, phi0], "313")))
     q = rot.quat_mul(q_WH, rot.euler_to_quat(np.stack([psi, theta, phi], axis=-1), "313"))
     return rot.quat_mul(q, rot.quat_conj(qP)), omega @ P.T
-
-
-# ------------------------------------------------------------------------------------------------
-# elliptic functions with the complementary parameter given: exact near m = 0 and m = 1
-# ------------------------------------------------------------------------------------------------
-def _complete_k(m1: float) -> float:
-    """``K(m) = R_F(0, m1, 1)`` (DLMF 19.25.1) from the complementary parameter ``m1 = 1 - m``: accurate as m -> 1,
-    infinite at m1 = 0 (the separatrix)."""
-    return float(elliprf(0.0, m1, 1.0)) if m1 > 0 else np.inf
-
-
-def _jacobi(u, m: float, m1: float):
-    """``sn, cn, dn`` of ``u`` (any shape, ``|u| <= K`` for full accuracy) at parameter ``m`` (``m1 = 1 - m`` given
-    separately, so that neither is a difference of nearly equal numbers): the arithmetic-geometric mean and its
-    descending back-substitution (Abramowitz & Stegun 16.4), started from ``b0 = sqrt(m1)`` instead of
-    ``sqrt(1 - m)``; ``dn = sqrt(cn^2 + m1 sn^2)``, without the cancellation of ``1 - m sn^2``. (scipy's ``ellipj``
-    computes ``1 - m`` itself and approximates to first order in it below 1e-9: 1.25e-11 off in sn at m1 = 1e-10.)"""
-    u = np.asarray(u, dtype=float)
-    if m1 == 0.0:  # the separatrix: sn = tanh, cn = dn = sech
-        return np.tanh(u), 1.0 / np.cosh(u), 1.0 / np.cosh(u)
-    a, b, c = 1.0, np.sqrt(m1), np.sqrt(m)
-    ratios = []
-    while abs(c) > 1e-17 * a and len(ratios) < 64:
-        a, b, c = 0.5 * (a + b), np.sqrt(a * b), 0.5 * (a - b)
-        ratios.append(c / a)
-    phi = (2.0 ** len(ratios)) * a * u
-    for r in reversed(ratios):
-        phi = 0.5 * (np.arcsin(r * np.sin(phi)) + phi)
-    sn, cn = np.sin(phi), np.cos(phi)
-    return sn, cn, np.sqrt(cn * cn + m1 * sn * sn)
-
-
-def _elliptic_argument(sn: float, cn: float, m1: float) -> float:
-    """``F(phi | m)`` for ``phi = atan2(sn, cn)`` in ``(-pi, pi]`` (``sn^2 + cn^2 = 1``): Carlson's
-    ``s R_F(c^2, d^2, 1)`` (DLMF 19.25.5) with ``d^2 = cn^2 + m1 sn^2``, reflected about ``+-K`` beyond a quarter period."""
-    value = sn * float(elliprf(cn * cn, cn * cn + m1 * sn * sn, 1.0))
-    return value if cn >= 0 else np.sign(sn) * 2 * _complete_k(m1) - value
-
-
-def _pi_of(n, m, m1, tau, *, one_minus_n=None):
-    """``(sn, cn, dn)`` at ``tau`` and Legendre's incomplete integral of the third kind along it,
-    ``Pi(n; am tau | m) = int_0^tau du / (1 - n sn^2 u)`` (n < 1; ``m1 = 1 - m``), continued past the quarter
-    periods (``Pi(n; phi + j pi) = Pi(n; phi) + 2 j Pi(n | m)``): ``tau`` is reduced to ``[-K, K)`` first, where
-    Carlson's symmetric forms give it to a few ulps (DLMF 19.25.14, 19.25.2),
-    ``Pi(n; phi) = s R_F(c^2, d^2, 1) + n/3 s^3 R_J(c^2, d^2, 1, 1 - n s^2)`` with ``s, c, d = sn, cn, dn``.
-    No quadrature: each time is computed on its own, to round-off whatever the grid. ``one_minus_n``: ``1 - n``
-    given accurately (n close to 1); then ``1 - n s^2 = (1 - n) + n c^2``, a sum of terms >= 0."""
-    tau = np.asarray(tau, dtype=float)
-    one_minus_n = 1.0 - n if one_minus_n is None else one_minus_n
-    K = _complete_k(m1)
-    if np.isfinite(K):
-        j = np.floor((tau + K) / (2 * K))
-        tau_r = tau - 2 * K * j
-    else:  # the separatrix (m = 1): no period
-        j, tau_r = np.zeros_like(tau), tau
-    sn, cn, dn = _jacobi(tau_r, m, m1)
-    s2 = sn * sn
-    x, y = cn * cn, dn * dn
-    p = one_minus_n + n * x if n > 0 else 1.0 - n * s2
-    value = sn * elliprf(x, y, 1.0) + (n / 3.0) * sn * s2 * elliprj(x, y, 1.0, p)
-    if np.isfinite(K) and np.any(j):
-        complete = elliprf(0.0, m1, 1.0) + (n / 3.0) * elliprj(0.0, m1, 1.0, one_minus_n)
-        value = value + 2 * j * complete
-        sign = 1.0 - 2.0 * (j % 2)  # sn and cn change sign every half period 2K
-        sn, cn = sign * sn, sign * cn
-    return (sn, cn, dn), value
 
 
 # ------------------------------------------------------------------------------------------------
@@ -351,8 +286,8 @@ def lagrange_top(inertia, q0, omega0, t, *, centre, force):
     ``lam = sqrt(beta (u3 - u1)) / 2`` and ``k^2 = (u2 - u1)/(u3 - u1)``. The precession ``psi' = (a - b u)/(1 - u^2)``
     and the spin ``phi' = L_3/C - u psi'`` are, by partial fractions, ``psi' = (a - b)/(2 (1 - u)) + (a + b)/(2 (1 + u))``
     and ``phi' = L_3/C - b - (a - b)/(2 (1 - u)) + (a + b)/(2 (1 + u))``, whose integrals are Legendre's third
-    integrals (:func:`_pi_of`): closed forms at every time, no quadrature. Returns ``q`` (n, 4), sign-continuous,
-    and ``omega`` (n, 3), body frame. :class:`ReferenceFailure` when the axis comes within
+    integrals (:func:`~xcheck.elliptic.legendre_pi`): closed forms at every time, no quadrature. Returns ``q``
+    (n, 4), sign-continuous, and ``omega`` (n, 3), body frame. :class:`ReferenceFailure` when the axis comes within
     :data:`LAGRANGE_MIN_SIN2` of the vertical."""
     I, q0, omega0, t = _inputs(inertia, q0, omega0, t)
     top = _top_state(I, q0, omega0, centre, force)
@@ -364,7 +299,7 @@ def lagrange_top(inertia, q0, omega0, t, *, centre, force):
     lam = 0.5 * np.sqrt(beta * (x3 - x1))
     m, m1 = span / (x3 - x1), (x3 - x2) / (x3 - x1)
     if span > 0:  # sn^2(tau0) = (u0 - u1) / (u2 - u1), cn^2(tau0) = (u2 - u0) / (u2 - u1)
-        tau0 = _elliptic_argument(np.sqrt(-x1 / span), np.sqrt(x2 / span), m1)
+        tau0 = elliptic_argument(np.sqrt(-x1 / span), np.sqrt(x2 / span), m1)
         if theta_dot0 > 0:  # u = cos theta falling: the elliptic argument runs the other way from u0
             tau0 = -tau0
     else:  # steady precession: no nutation
@@ -377,10 +312,10 @@ def lagrange_top(inertia, q0, omega0, t, *, centre, force):
     def integrals(tt):
         """sn, cn, dn at ``tt`` and the integrals from 0 of 1/(1 - u) and 1/(1 + u)."""
         tau = lam * tt + tau0
-        (sn, cn, dn), pm = _pi_of(n_minus, m, m1, tau, one_minus_n=roots.z2 / one_minus_u1)
-        _, pp = _pi_of(n_plus, m, m1, tau)
-        _, pm0 = _pi_of(n_minus, m, m1, np.array([tau0]), one_minus_n=roots.z2 / one_minus_u1)
-        _, pp0 = _pi_of(n_plus, m, m1, np.array([tau0]))
+        (sn, cn, dn), pm = legendre_pi(n_minus, m, m1, tau, one_minus_n=roots.z2 / one_minus_u1)
+        _, pp = legendre_pi(n_plus, m, m1, tau)
+        _, pm0 = legendre_pi(n_minus, m, m1, np.array([tau0]), one_minus_n=roots.z2 / one_minus_u1)
+        _, pp0 = legendre_pi(n_plus, m, m1, np.array([tau0]))
         return sn, cn, dn, (pm - pm0[0]) / (one_minus_u1 * lam), (pp - pp0[0]) / (one_plus_u1 * lam)
 
     sn, cn, dn, i_minus, i_plus = integrals(t)
@@ -666,7 +601,7 @@ def own_period(inertia, q0, omega0, torque=None) -> float | None:
         span = roots.x2 - roots.x1
         if span > 0:
             lam = 0.5 * np.sqrt(top.beta * (roots.x3 - roots.x1))
-            return float(2 * _complete_k((roots.x3 - roots.x2) / (roots.x3 - roots.x1)) / lam)
+            return float(2 * complete_k((roots.x3 - roots.x2) / (roots.x3 - roots.x1)) / lam)
         sin2 = top.one_minus_u0 * top.one_plus_u0
         return float(2 * np.pi * sin2 / abs(top.P)) if top.P else None  # psi' = P / sin^2 theta
     h = np.zeros(3) if torque is None else np.asarray(torque.h0, dtype=float)
@@ -705,183 +640,9 @@ def elliptic_period(inertia, omega0) -> float:
     return float(4 * ellipk(m) / lam) if lam > 0 else float("inf")
 
 
-# ------------------------------------------------------------------------------------------------
-# the guard: an exact reference checked before it judges (issue 36)
-# ------------------------------------------------------------------------------------------------
-#: An exact reference farther than this [rad] from its independent check is not used (unless the check itself is
-#: less certain than that: :data:`CONDITIONING_ULPS`).
-GUARD_BOUND = 1e-11
-#: The check compares the closed form with the compiled DOP853 at this many times of the study's own grids.
-GUARD_POINTS = 16
-#: The compiled DOP853 of the check: rtol (scipy's smallest, 100 eps) and atol; a second run at SPREAD_RTOL, whose
-#: difference from the first estimates the first's own error where they disagree.
-GUARD_RTOL, GUARD_ATOL = 2.5e-14, 2.5e-16
-SPREAD_RTOL, SPREAD_ATOL = 1e-13, 1e-15
-#: ... that spread times this is taken as DOP853's own error (its two runs' errors are correlated: on a body turning
-#: at 100 rad/s, 2.6e-11 rad from mpmath's 25-digit truth where the two differed by 1.4e-11, and the closed form 5e-12).
-SPREAD_FACTOR = 8
-#: Where the two disagree by more than GUARD_BOUND, the motion's conditioning is measured too: how far a relative
-#: change of CONDITIONING_STEP in each principal moment (relative to the tensor's norm: a turned tensor's moments are
-#: known to a few ulps of it) and in each component of the body rate moves it, per unit change. Times machine epsilon,
-#: that is what the last bit of the body and its state is worth; no double-precision computation of this motion is
-#: taken as more certain than CONDITIONING_ULPS of it. (Measured on 3600 thin, near-separatrix and fast bodies of
-#: tests/families.py: the closed form and DOP853 differ by at most 0.63 of the bound this makes, 160 ulps of the
-#: conditioning; mpmath at 25 digits showed the closed form the nearer to the truth where they differ.)
-CONDITIONING_STEP = 1e-8
-CONDITIONING_ULPS = 128
-#: The guard's DOP853 takes at most this many steps (a fallback keeps its dense output: 456 bytes a step).
-GUARD_MAX_STEPS = 200_000
-
-
-@dataclass
-class ReferenceCheck:
-    """What the guard found: the closed form (``kind``) against the compiled DOP853 at ``times`` times of the study's
-    grids. ``difference`` the largest attitude difference [rad] (at ``at_time`` [s]); ``uncertainty`` the check's
-    own (DOP853's spread between two tolerances, and the motion's conditioning in ulps: measured only where they
-    disagree by more than :data:`GUARD_BOUND`; 0 where not measured); ``conditioning`` [rad] what the last bit of the
-    body and its state is worth (None: not measured); ``bound`` = max(GUARD_BOUND, uncertainty); ``passed``: the
-    closed form is used. Otherwise ``why`` says why not, and ``solution`` (the compiled DOP853's dense output) is the
-    reference the study uses instead."""
-
-    kind: str
-    times: int
-    difference: float
-    at_time: float
-    bound: float
-    passed: bool
-    uncertainty: float = 0.0
-    conditioning: float | None = None
-    why: str = ""
-    solution: object = None
-    #: False where the check could not be run (the motion needs more DOP853 steps than its budget): the closed form
-    #: is used unchecked, and the checks it would fail cannot decide (:func:`xcheck.study.checks.qualify`)
-    checked: bool = True
-
-    def to_json(self) -> dict:
-        return {"kind": self.kind, "against": f"DOP853 (compiled) at rtol {GUARD_RTOL:g}", "times": self.times,
-                "max_attitude_difference": _json(self.difference), "at_time": self.at_time, "bound": self.bound,
-                "uncertainty": self.uncertainty, "conditioning": self.conditioning, "passed": self.passed,
-                "checked": self.checked, "used": "exact" if self.passed else "dop853",
-                **({"why": self.why} if self.why else {})}
-
-    def describe(self) -> str:
-        """The check in a sentence (the report's and the terminal's)."""
-        against = f"DOP853 (compiled, rtol {GUARD_RTOL:g}) at {self.times} times of the study's grids"
-        if not self.checked:
-            return f"the {self.kind}, unchecked: {self.why}"
-        if self.passed:
-            text = f"the {self.kind}, checked against {against}: they agree to {self.difference:.1e} rad (bound {self.bound:.0e})"
-            if self.uncertainty > GUARD_BOUND:
-                text += (f"; this motion is sensitive (its last bit is worth {self.conditioning:.1e} rad): no reference "
-                         f"in double precision is certain below {self.uncertainty:.1e} rad")
-            return text
-        return f"the {self.kind} was not used: {self.why}; the study's reference is {against.split(' at ')[0]}"
-
-
-def _json(v):
-    return float(v) if np.isfinite(v) else None
-
-
 def exact_kind(torque) -> str:
     """Which closed form :func:`exact_reference` uses for ``torque``, in words."""
     if torque is None:
         return "torque-free closed form"
     return "axisymmetric gyrostat's closed form" if getattr(torque, "conserves_momentum", False) else \
         "heavy top's closed form (Lagrange's)"
-
-
-def guard_times(duration: float, grids=(), points: int = GUARD_POINTS) -> np.ndarray:
-    """About ``points`` times [s] for the guard: the final time (where the final errors are measured) and times spread
-    evenly over the points of the study's ``grids`` (steps [s]: each grid ``0, dt, 2 dt, ...``, its last point the
-    duration), the coarsest first; without grids, evenly over the duration."""
-    duration = float(duration)
-    picks = [duration]
-    for dt in sorted({float(g) for g in grids if 0 < g <= duration}, reverse=True)[:3]:
-        n = int(np.floor(duration / dt + 1e-9))
-        k = np.unique(np.linspace(1, n, max(1, points // 3)).round().astype(int))
-        picks += list(np.minimum((k | 1) * dt, duration))  # odd multiples: not on a grid twice as coarse
-    picks = np.unique(np.asarray(picks, dtype=float))
-    if len(picks) < points:  # topped up evenly over the duration
-        picks = np.unique(np.concatenate([picks, np.linspace(0, duration, points - len(picks) + 2)[1:-1]]))
-    return picks
-
-
-def check_exact(inertia, q0, omega0, duration: float, torque=None, times=None) -> ReferenceCheck:
-    """The guard (issue 36): the exact reference of this body and torque (:func:`exact_reference`) at ``times``
-    (default :func:`guard_times`) against the compiled DOP853 (:func:`xcheck.integrators.dop853.dop853_dense`),
-    an independent integration of the same equations. Within :data:`GUARD_BOUND`, or within the check's own
-    uncertainty where that is larger (DOP853's error, estimated from a second run, or the motion's conditioning:
-    see :data:`CONDITIONING_ULPS`), the closed form is used; else, or where it cannot be computed, the study
-    falls back to the DOP853 run, saying why (:class:`ReferenceCheck`)."""
-    from .integrators.dop853 import dop853_at, dop853_dense
-
-    I, q0, omega0, _ = _inputs(inertia, q0, omega0, [0.0])
-    times = guard_times(duration) if times is None else np.unique(np.asarray(times, dtype=float))
-    kind = exact_kind(torque)
-
-    def run(rtol, atol, inertia_=I, omega_=omega0):
-        return dop853_at(inertia_, q0, omega_, duration, times, torque=torque, rtol=rtol, atol=atol,
-                         max_steps=GUARD_MAX_STEPS)[0]
-
-    def fallback(why, **found):
-        try:
-            solution = dop853_dense(I, q0, omega0, duration, torque=torque, rtol=GUARD_RTOL, atol=GUARD_ATOL,
-                                    max_steps=GUARD_MAX_STEPS)
-        except RuntimeError as exc:
-            raise ReferenceFailure(f"the {kind} was not used ({why}), and DOP853 could not stand in: {exc}") from None
-        return ReferenceCheck(kind, len(times), bound=found.pop("bound", GUARD_BOUND), passed=False, why=why,
-                              solution=solution, **found)
-
-    turned = float(np.linalg.norm(omega0)) * float(duration)
-    if _DOP853_STEPS_PER_RAD * turned > GUARD_MAX_STEPS:  # used unchecked, saying so
-        return ReferenceCheck(kind, 0, np.nan, 0.0, GUARD_BOUND, True, checked=False,
-                              why=f"its independent check (DOP853) would need about {_DOP853_STEPS_PER_RAD * turned:.3g} "
-                                  f"steps for |omega0| T = {turned:.3g} rad, beyond its budget of {GUARD_MAX_STEPS}")
-    try:
-        q_check = run(GUARD_RTOL, GUARD_ATOL)
-    except RuntimeError as exc:
-        raise ReferenceFailure(f"the independent check of the {kind} (DOP853) could not be run: {exc}") from None
-    try:
-        q_exact, _ = exact_reference(I, q0, omega0, times, torque)
-    except ReferenceFailure as exc:
-        return fallback(str(exc), difference=np.inf, at_time=0.0)
-    errors = rot.attitude_error(q_exact, q_check)
-    errors = np.where(np.isfinite(errors), errors, np.inf)
-    worst = int(np.argmax(errors))
-    difference, at_time = float(errors[worst]), float(times[worst])
-    if difference <= GUARD_BOUND:
-        return ReferenceCheck(kind, len(times), difference, at_time, GUARD_BOUND, True)
-    spread = float(np.max(rot.attitude_error(q_check, run(SPREAD_RTOL, SPREAD_ATOL))))
-    conditioning = np.finfo(float).eps * _sensitivity(run, I, omega0)
-    uncertainty = max(SPREAD_FACTOR * spread, CONDITIONING_ULPS * conditioning)
-    bound = max(GUARD_BOUND, uncertainty)
-    found = dict(difference=difference, at_time=at_time, bound=float(bound), uncertainty=float(uncertainty),
-                 conditioning=float(conditioning))
-    if difference <= bound:
-        return ReferenceCheck(kind, len(times), passed=True, **found)
-    return fallback(f"it is {difference:.2g} rad from DOP853 at t = {at_time:.6g} s, beyond the bound {bound:.1e} rad "
-                    "(the check's own uncertainty included)", **found)
-
-
-def _sensitivity(run, inertia, omega0) -> float:
-    """The largest change of the attitude [rad] over ``times`` per unit relative change of a principal moment (relative
-    to the tensor's norm) or a body-rate component (relative to its norm): DOP853 runs at rtol 1e-12 with each
-    perturbed by :data:`CONDITIONING_STEP` (smaller where the change leaves the linear range)."""
-    moments, V = principal_axes(inertia)
-    scale_I, scale_w = float(np.linalg.norm(inertia)), max(float(np.linalg.norm(omega0)), 1e-300)
-    base = run(1e-12, 1e-14)
-    worst = 0.0
-    for i in range(6):
-        step = CONDITIONING_STEP
-        for _ in range(3):
-            axis = V[:, i % 3]
-            if i < 3:
-                q = run(1e-12, 1e-14, inertia_=inertia + step * scale_I * np.outer(axis, axis))
-            else:
-                q = run(1e-12, 1e-14, omega_=omega0 + step * scale_w * axis)
-            change = float(np.max(rot.attitude_error(q, base)))
-            if change < 1e-3:  # still linear
-                break
-            step *= 1e-4 / change
-        worst = max(worst, change / step)
-    return worst

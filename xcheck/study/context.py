@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..reference import ReferenceFailure, check_exact, dop853_solution, exact_reference, guard_times
+from ..guard import check_exact, guard_times
+from ..reference import ReferenceFailure, dop853_solution, exact_reference
 from ..runners import RUNNERS, RunContext
 from ..scenario import Scenario, build_torque, torque_parts
 
@@ -54,7 +55,7 @@ def run_context(scenario: Scenario) -> RunContext:
 
 class _Reference:
     """The reference of a scenario, evaluated on any run's grid (cached per process). An exact one is checked first
-    (the guard, :func:`~xcheck.reference.check_exact`: against the compiled DOP853 at times of the study's own
+    (the guard, :func:`~xcheck.guard.check_exact`: against the compiled DOP853 at times of the study's own
     grids); where it fails, the study's reference is that DOP853 run instead (``used`` says which), and ``check``
     (its JSON) says why."""
 
