@@ -102,7 +102,7 @@ class MethodRuns:
     study's worker and a sweep's chunk both make them): the runs (coarse to fine, or loose to tight
     tolerances), the finest good run sampled for the figures (``series``; None where none is drawn), the direct
     comparisons with its partner, why nothing could be measured (``reference_error``), what the guard of an exact
-    reference found (``reference_check``: :meth:`xcheck.reference.ReferenceCheck.to_json` and its sentence), and
+    reference found (``reference_check``: :meth:`xcheck.guard.ReferenceCheck.to_json` and its sentence), and
     whether a sweep ran it batched."""
 
     method: str

@@ -144,6 +144,11 @@ class Scenario:
     #: the keys the file left out that are derived from the body when the model is loaded (:func:`fill_derived`,
     #: issue 36): ``steps``, ``quick_steps``, and with the steps the checks' limits
     derive: tuple = ()
+    #: what the guard found of an exact reference, once, in the process that plans the study
+    #: (:func:`xcheck.study.guard_references`), with the scenario's key then (a copy changed since is checked again):
+    #: the workers build the reference it chose without checking it again (a worker that drives only Basilisk never
+    #: loads compiled code); None: not checked yet
+    guarded: tuple | None = None
 
 
 def _tolerances(st, key, default) -> tuple:

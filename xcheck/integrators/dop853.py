@@ -15,8 +15,11 @@ side as :func:`xcheck.reference.rigid_body_rhs`.
 
 from __future__ import annotations
 
+import importlib.util
+from pathlib import Path
+
 import numpy as np
-from scipy.integrate._ivp import dop853_coefficients as _coefficients
+import scipy
 
 from .._jit import njit
 from ..fields import TorqueModel
@@ -24,6 +27,21 @@ from ..fields.kernel import torque_eval
 
 __all__ = ["dop853_dense", "dop853_at", "DenseSolution", "COMPILED_DOP853_STATUS", "warm"]
 
+def _scipy_coefficients():
+    """scipy's module of DOP853's coefficients (Hairer's published tableau), loaded from its file alone: importing it
+    the usual way imports ``scipy.integrate`` first (0.13 s a process, where the study needs none of it)."""
+    path = Path(scipy.__file__).parent / "integrate" / "_ivp" / "dop853_coefficients.py"
+    if not path.is_file():  # a scipy laid out otherwise
+        from scipy.integrate._ivp import dop853_coefficients
+
+        return dop853_coefficients
+    spec = importlib.util.spec_from_file_location("xcheck_dop853_coefficients", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+_coefficients = _scipy_coefficients()
 _S = _coefficients.N_STAGES  # 12
 _A = np.ascontiguousarray(_coefficients.A, dtype=float)  # (16, 16): the 12 stages, the step's end, 3 more for the dense output
 _C = np.ascontiguousarray(_coefficients.C, dtype=float)
@@ -34,10 +52,10 @@ _D = np.ascontiguousarray(_coefficients.D, dtype=float)  # (4, 16)
 
 #: What the kernel's status means.
 COMPILED_DOP853_STATUS = {0: "ok", 1: "more steps than its budget", 2: "the state became non-finite",
-                          3: "the step became too small"}
+                          3: "the step became too small", 4: "its dense output's rows ran out"}
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _rhs(t, y, I, Iinv, kind, P, T, tau, out):
     q0, q1, q2, q3, wx, wy, wz = y[0], y[1], y[2], y[3], y[4], y[5], y[6]
     torque_eval(kind, P, T, t, y[0:4], y[4:7], tau)
@@ -56,7 +74,7 @@ def _rhs(t, y, I, Iinv, kind, P, T, tau, out):
     out[6] = Iinv[2, 0] * rx + Iinv[2, 1] * ry + Iinv[2, 2] * rz
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy", inline="always", _nrt=False)
 def _stages(first, last, t, h, y, A, C, K, ytmp, I, Iinv, kind, P, T, tau):
     """The stages ``first`` to ``last - 1`` of a step of ``h`` from ``(t, y)`` into the rows of ``K`` (row ``s`` from
     the rows before it, by the tableau's row ``A[s]``)."""
@@ -69,7 +87,7 @@ def _stages(first, last, t, h, y, A, C, K, ytmp, I, Iinv, kind, P, T, tau):
         _rhs(t + C[s] * h, ytmp, I, Iinv, kind, P, T, tau, K[s])
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy", inline="always", _nrt=False)
 def _rms(x, scale):
     s = 0.0
     for i in range(x.shape[0]):
@@ -78,7 +96,7 @@ def _rms(x, scale):
     return np.sqrt(s / x.shape[0])
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy", inline="always", _nrt=False)
 def _dense_value(F, k, y_old, x, out, row):
     """The dense output of step ``k`` (its coefficients ``F[k]``, its start ``y_old``) at the fraction ``x`` of it."""
     for c in range(7):
@@ -89,28 +107,23 @@ def _dense_value(F, k, y_old, x, out, row):
         out[row, c] = v + y_old[c]
 
 
-@njit(cache=True, error_model="numpy")
-def _solve(y0, ends, rtol, atol, max_steps, I, Iinv, kind, P, T, A, C, B, E3, E5, D, capacity, store, t_query, out):
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _solve(y0, ends, rtol, atol, max_steps, I, Iinv, kind, P, T, A, C, B, E3, E5, D, store, t_query, out, ts, yo, F,
+           work):
     """From 0 through each time of ``ends`` in turn (restarting there: a torque's breakpoints, then the duration),
     writing the dense output at each time of ``t_query`` (ascending) into ``out`` as the step that covers it is taken.
-    With ``store``, every step's dense output is kept (else only the current one: no memory grows with the run).
-    Returns ``(status, steps, t (steps + 1), y_old (steps, 7), F (steps, 7, 7))``."""
+    With ``store``, every step's dense output is kept in ``ts`` (steps + 1), ``yo`` (steps, 7) and ``F`` (steps, 7, 7)
+    (else only the current one, in their first row: no memory grows with the run). Nothing is allocated (no numba
+    runtime to load: its first use costs a process ~0.1 s): ``work`` (16 + 8, 7) is the scratch. Returns ``(status,
+    steps)``; status 4 where ``store`` ran out of rows (:data:`COMPILED_DOP853_STATUS`)."""
     n = 7
     S = 12
-    K = np.empty((16, n))
-    y = y0.copy()
-    y_new = np.empty(n)
-    ytmp = np.empty(n)
-    f = np.empty(n)
-    tau = np.empty(3)
-    scale = np.empty(n)
-    err5 = np.empty(n)
-    err3 = np.empty(n)
-    if not store:
-        capacity = 1
-    ts = np.empty(capacity + 1)
-    yo = np.empty((capacity, n))
-    F = np.empty((capacity, 7, n))
+    K = work[0:16]
+    y, y_new, ytmp, f, scale, err5, err3, tau = (work[16], work[17], work[18], work[19], work[20], work[21], work[22],
+                                                 work[23, 0:3])
+    for i in range(n):
+        y[i] = y0[i]
+    capacity = yo.shape[0]
     ts[0] = 0.0
     steps = 0
     iq = 0
@@ -143,21 +156,14 @@ def _solve(y0, ends, rtol, atol, max_steps, I, Iinv, kind, P, T, A, C, B, E3, E5
         h_abs = min(100 * h0, h1, t_bound - t)
         while t < t_bound:
             if steps >= max_steps:
-                return 1, steps, ts, yo, F
-            if store and steps >= capacity:  # grow the dense output's storage
-                capacity *= 2
-                ts2 = np.empty(capacity + 1)
-                ts2[:steps + 1] = ts[:steps + 1]
-                yo2 = np.empty((capacity, n))
-                yo2[:steps] = yo[:steps]
-                F2 = np.empty((capacity, 7, n))
-                F2[:steps] = F[:steps]
-                ts, yo, F = ts2, yo2, F2
+                return 1, steps
+            if store and steps >= capacity:
+                return 4, steps
             min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
             rejected = False
             while True:
                 if h_abs < min_step:
-                    return 3, steps, ts, yo, F
+                    return 3, steps
                 t_new = t + h_abs
                 if t_new > t_bound:
                     t_new = t_bound
@@ -191,7 +197,7 @@ def _solve(y0, ends, rtol, atol, max_steps, I, Iinv, kind, P, T, A, C, B, E3, E5
                 else:
                     error_norm = abs(h) * n5 / np.sqrt((n5 + 0.01 * n3) * n)
                 if not np.isfinite(error_norm):
-                    return 2, steps, ts, yo, F
+                    return 2, steps
                 if error_norm < 1.0:
                     if error_norm == 0.0:
                         factor = 10.0
@@ -230,10 +236,10 @@ def _solve(y0, ends, rtol, atol, max_steps, I, Iinv, kind, P, T, A, C, B, E3, E5
             steps += 1
             if store:
                 ts[steps] = t
-    return 0, steps, ts, yo, F
+    return 0, steps
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _evaluate(ts, yo, F, steps, t_query, out):
     """The dense output at each time of ``t_query`` (any order) into ``out`` (m, 7)."""
     for k in range(t_query.shape[0]):
@@ -277,12 +283,18 @@ def _run(inertia, q0, omega0, duration, torque, rtol, atol, max_steps, store, t_
     breaks = torque.breakpoints(duration) if hasattr(torque, "breakpoints") else ()
     ends = np.array([float(b) for b in np.unique(breaks) if 0 < b < duration] + [float(duration)])
     y0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(omega0, dtype=float)])
-    turned = float(np.linalg.norm(omega0)) * float(duration)
-    capacity = int(min(max_steps, 64 + 8 * turned))
     out = np.full((len(t_query), 7), np.nan)
-    status, steps, ts, yo, F = _solve(y0, ends, float(rtol), float(atol), int(max_steps), I, np.linalg.inv(I), int(kind),
-                                      np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(T, dtype=float),
-                                      _A, _C, _B, _E3, _E5, _D, capacity, store, t_query, out)
+    args = (y0, ends, float(rtol), float(atol), int(max_steps), I, np.linalg.inv(I), int(kind),
+            np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(T, dtype=float), _A, _C, _B, _E3, _E5, _D)
+    work = np.empty((24, 7))
+    rows = 1
+    if store:  # a first run counts the steps, the second keeps them (a few milliseconds more; no numba runtime)
+        status, rows = _solve(*args, False, t_query, out, np.empty(2), np.empty((1, 7)), np.empty((1, 7, 7)), work)
+        if status:
+            raise RuntimeError(f"the compiled DOP853 stopped after {rows} steps of {duration:g} s: "
+                               f"{COMPILED_DOP853_STATUS[int(status)]}")
+    ts, yo, F = np.empty(rows + 1), np.empty((max(rows, 1), 7)), np.empty((max(rows, 1), 7, 7))
+    status, steps = _solve(*args, store, t_query, out, ts, yo, F, work)
     if status:
         raise RuntimeError(f"the compiled DOP853 stopped after {steps} steps of {duration:g} s: "
                            f"{COMPILED_DOP853_STATUS[int(status)]}")

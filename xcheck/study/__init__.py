@@ -50,7 +50,7 @@ class StudyResult:
     series: dict = field(default_factory=dict)
     comparisons: list = field(default_factory=list)  # {"a", "b", "dt", "max_attitude_difference"}
     versions: dict = field(default_factory=versions)
-    #: what the guard of an exact reference found (:meth:`xcheck.reference.ReferenceCheck.to_json`, with its sentence
+    #: what the guard of an exact reference found (:meth:`xcheck.guard.ReferenceCheck.to_json`, with its sentence
     #: ``text``): the closed form used, or DOP853 instead and why; None for a numerical reference
     reference_check: dict | None = None
     #: why the study cannot decide, beyond its checks' own notes (a suspect or uncertain reference, a vacuous study)
@@ -89,7 +89,7 @@ class StudyResult:
                 "checks": [c.to_json() for c in self.checks], "passed": self.passed, "outcome": self.outcome,
                 **({"inconclusive": list(self.inconclusive)} if self.inconclusive else {}),
                 "comparisons": list(self.comparisons),
-                **({"reference_check": {k: v for k, v in self.reference_check.items()}} if self.reference_check else {}),
+                **({"reference_check": dict(self.reference_check)} if self.reference_check else {}),
                 **({"assumptions": list(sc.assumptions)} if sc.assumptions else {}),
                 **({"wheel_speeds": list(sc.wheel_speeds)} if sc.wheel_speeds is not None else {})}
 
@@ -144,6 +144,7 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     except ValueError as exc:
         raise ValueError(f"steps: {exc}") from None
     tolerances = scenario.quick_tolerances if quick else scenario.tolerances
+    guard_references([scenario])
     tasks = [(scenario, m, tuple(steps), comparison_partner(scenario, m, methods), tolerances, timing) for m in methods]
     results = map_tasks(run_method, tasks, workers=workers, progress=progress, pool=pool,
                    labels=[f"{scenario.name}: {m}" for m in methods], here=prefer_here if here else None)
@@ -157,6 +158,7 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
     scenario's last task is in (the report submits its figures then, behind the studies still queued). ``here``:
     this process runs tasks too, beside ``pool``, and ``idle()``'s work where it would wait for the workers
     (:func:`~xcheck.study.executor.map_tasks`)."""
+    guard_references(scenarios)
     plans = []
     for sc in scenarios:
         methods = default_methods(sc)
@@ -184,6 +186,22 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
     map_tasks(run_method, tasks, workers=workers, progress=progress, pool=pool, labels=labels, on_result=done,
               here=prefer_here if here else None, idle=idle)
     return studies
+
+
+def guard_references(scenarios) -> None:
+    """Check each exact reference once, here, before its tasks go to the workers (issue 36: the guard,
+    :func:`xcheck.guard.check_exact`), and give the scenario what it found (``Scenario.guarded``): a worker then
+    builds the reference the guard chose without checking it again (and one that drives only Basilisk never loads
+    compiled code for it). A reference that cannot be built is left to the workers, which report it."""
+    from ..reference import ReferenceFailure
+    from .context import scenario_key, scenario_reference
+
+    for sc in scenarios:
+        if sc.reference == "exact":
+            try:
+                sc.guarded = (scenario_key(sc), scenario_reference(sc).check)
+            except ReferenceFailure:
+                pass
 
 
 def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> StudyResult:

@@ -64,7 +64,16 @@ class _Reference:
         self.scenario, self.ctx = scenario, ctx
         self.check = None
         self._grids = []
-        if self.kind == "exact":
+        if self.kind == "exact" and scenario.guarded and scenario.guarded[0] == scenario_key(scenario):
+            self.check = scenario.guarded[1]  # checked where the study was planned
+            if self.check["used"] == "dop853":
+                from ..guard import GUARD_ATOL, GUARD_MAX_STEPS, GUARD_RTOL
+                from ..integrators.dop853 import dop853_dense
+
+                self.used = "dop853"
+                self.dense = dop853_dense(ctx.inertia, ctx.q0, ctx.omega0, ctx.duration, torque=ctx.torque,
+                                          rtol=GUARD_RTOL, atol=GUARD_ATOL, max_steps=GUARD_MAX_STEPS)
+        elif self.kind == "exact":
             grids = (*scenario.steps, *scenario.quick_steps, scenario.adaptive_step)
             check = check_exact(ctx.inertia, ctx.q0, ctx.omega0, ctx.duration, ctx.torque,
                                 guard_times(ctx.duration, grids))
