@@ -408,6 +408,11 @@ def scenario_summary(st) -> str:
         out.append("Every measured order matches its theory" +
                    (" (the expected failures aside)." if any(m.verdict == "expected" for m in st.methods.values())
                     else "."))
+    undecided = [c for c in st.checks if c.inconclusive]
+    if undecided:  # what the study could not decide, and what would (issue 36)
+        out.append("Could not decide: " + "; ".join(f"{c.name} ({c.note.rsplit('; ', 1)[-1]})" for c in undecided[:3])
+                   + (f"; and {len(undecided) - 3} more" if len(undecided) > 3 else "") + ".")
+    out += [f"Inconclusive: {why}." for why in st.inconclusive]
     return " ".join(out)
 
 
