@@ -434,5 +434,7 @@ def test_a_second_maker_of_an_environment_waits_for_the_first(tmp_path):
         env.mkdir()
         (env / ".ready").write_text("9.9.9\n")
     out, _ = proc.communicate(timeout=60)
-    waited, ready = out.split()
-    assert float(waited) >= 0.9 and ready == "True"
+    _, ready = out.split()
+    # it saw the environment made: written while this process held the lock, so it had waited for the lock (its wait in
+    # seconds is printed, not asserted: its interpreter's start-up, before its clock starts, varies by machine)
+    assert ready == "True"
