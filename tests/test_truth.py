@@ -91,6 +91,14 @@ def _at_the_seeds_quick_steps(tmp_path, model_text, rate, methods):
                           'steps = [0.5, 0.25]\n')
 
 
+def _gyroscope(tmp_path, study):
+    """Seed 001's gyroscope at theta0 = 15 deg (the bundled gyroscope-nonsingular) with ``study``, the text after its
+    [study] header."""
+    return _scenario_file(tmp_path, resolve_scenario("gyroscope-nonsingular").model,
+                          'duration = 10.0\n[initial]\neuler_sequence = "323"\neuler_angles_deg = [0, 15, 0]\n'
+                          f'euler_rates = [0.02, 0.02, 15.71]\n[study]\n{study}')
+
+
 # ------------------------------------------------------------------------------------------------------
 # references right wherever they are used
 # ------------------------------------------------------------------------------------------------------
@@ -173,18 +181,16 @@ def test_a_pre_asymptotic_order_is_inconclusive_not_failed(tmp_path, capsys):
 def test_a_wrong_order_still_fails():
     """The other side: the printed algorithm 172 is second order, expected fourth here: a wrong local order that does
     not move toward 4 is FAILED (exit 1), not pre-asymptotic."""
-    from xcheck.study.checks import qualify  # noqa: F401 (the study assembles through it)
+    import dataclasses
+
+    from xcheck.runners import RUNNERS
+    from xcheck.study.checks import _order
 
     sc = resolve_scenario("gyroscope-nonsingular")
     sc.checks["expected_to_fail"] = []
-    from xcheck.runners import RUNNERS
-
     st = run_study(sc, methods=["lie-thesis-172"], quick=True, workers=1, timing=False)
     assert RUNNERS["lie-thesis-172"].expected_order == 2 and st.outcome == "PASSED"  # it is declared order 2
-    import dataclasses
-
     fake = dataclasses.replace(st.methods["lie-thesis-172"], expected_order=4)
-    from xcheck.study.checks import _order
 
     check = _order(fake, sc.checks, {})
     assert check.failed and not check.inconclusive and check.value == pytest.approx(2.0, abs=0.05)
@@ -192,14 +198,12 @@ def test_a_wrong_order_still_fails():
 
 def test_a_suspect_reference_is_named_and_no_method_is_blamed(tmp_path, capsys):
     """Every fourth-order method agrees with every other but not with the reference: here a 'fine' reference made by
-    the printed algorithm 172 (second order) at 1/512 s, 2.8e-9 rad off, which the methods' finest steps beat (1e-11). Before: FAILED final-error and agreement for MuJoCo and ours alike. Now INCONCLUSIVE (exit 4), the
+    the printed algorithm 172 (second order) at 1/512 s, 2.8e-9 rad off, which the methods' finest steps beat
+    (1e-11). Before: FAILED final-error and agreement for MuJoCo and ours alike. Now INCONCLUSIVE (exit 4), the
     reference named suspect, no method FAILED."""
-    scenario = _scenario_file(tmp_path, resolve_scenario("gyroscope-nonsingular").model,
-                              'duration = 10.0\n[initial]\neuler_sequence = "323"\neuler_angles_deg = [0, 15, 0]\n'
-                              'euler_rates = [0.02, 0.02, 15.71]\n[study]\nreference = "fine"\n'
-                              'reference_method = "lie-thesis-172"\nreference_dt = 0.001953125\n'
-                              'methods = ["lie-rkmk4", "euler-rk4", "mujoco-rk4"]\n'
-                              'steps = [0.0078125, 0.00390625, 0.001953125, 0.0009765625]\n')
+    scenario = _gyroscope(tmp_path, 'reference = "fine"\nreference_method = "lie-thesis-172"\n'
+                                    'reference_dt = 0.001953125\nmethods = ["lie-rkmk4", "euler-rk4", "mujoco-rk4"]\n'
+                                    'steps = [0.0078125, 0.00390625, 0.001953125, 0.0009765625]\n')
     assert main(["converge", str(scenario), "--workers", "1"]) == 4
     out = capsys.readouterr().out
     assert "INCONCLUSIVE: the 3 fourth-order methods agree with one another" in out
@@ -226,11 +230,8 @@ def test_a_vacuous_study_is_inconclusive_and_says_so(tmp_path, capsys, rate, why
 def test_a_failure_line_names_the_value_and_the_limit(tmp_path, capsys):
     """Before: 'FAILED order:formulation-1: median of the local orders between ...' said neither. Now the line has
     the observed value, the expected one and the allowed range, or the error and its limit."""
-    scenario = _scenario_file(tmp_path, resolve_scenario("gyroscope-nonsingular").model,
-                              'duration = 10.0\n[initial]\neuler_sequence = "323"\neuler_angles_deg = [0, 15, 0]\n'
-                              'euler_rates = [0.02, 0.02, 15.71]\n[study]\nmethods = ["lie-rkmk4"]\n'
-                              'steps = [0.03125, 0.015625, 0.0078125]\n[checks]\nfinal_error = 1e-15\n'
-                              'order_excess = 0.01\norder_tolerance = 0.01\n')
+    scenario = _gyroscope(tmp_path, 'methods = ["lie-rkmk4"]\nsteps = [0.03125, 0.015625, 0.0078125]\n[checks]\n'
+                                    'final_error = 1e-15\norder_excess = 0.01\norder_tolerance = 0.01\n')
     assert main(["converge", str(scenario), "--workers", "1"]) == 1
     out = capsys.readouterr().out
     assert "FAILED final-error:lie-rkmk4: attitude error at the finest step" in out and "; limit 1e-15 rad" in out

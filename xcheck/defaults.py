@@ -34,7 +34,13 @@ import numpy as np
 
 from . import rotations as rot
 
-__all__ = ["StudyDefaults", "derive", "TURN_PER_STEP", "FLOOR", "QUICK_ERROR", "MAX_STEPS"]
+__all__ = ["StudyDefaults", "derive", "seed_defaults", "SEED_STEPS", "SEED_QUICK_STEPS", "TURN_PER_STEP", "FLOOR",
+           "QUICK_ERROR", "MAX_STEPS"]
+
+#: Seed 004 §3.3: 1/2, 1/4, ..., 1/4096 s (what a study takes where nothing is derived: the bundled scenarios write it)
+SEED_STEPS = tuple(2.0**-k for k in range(1, 13))
+#: ``--quick``: five steps, 1/64 ... 1/1024 s.
+SEED_QUICK_STEPS = tuple(2.0**-k for k in range(6, 11))
 
 #: The coarsest step turns the body by at most this [rad] at its fastest rate.
 TURN_PER_STEP = 0.5
@@ -92,8 +98,8 @@ def _ladder(top: float, bottom: float) -> tuple:
 def derive(inertia, q0, omega0, duration: float | None, torque=None) -> StudyDefaults:
     """The defaults of a study of this motion (see the module docstring). ``duration`` None: a model alone's, derived
     too. ``inertia`` (3, 3) [kg m^2], ``q0`` [w, x, y, z] body -> world, ``omega0`` [rad/s] body frame, ``torque`` a
-    :class:`~xcheck.fields.TorqueModel` or None. ValueError saying why where nothing can be derived (a motion of
-    more than :data:`MAX_DERIVE_TURN` rad)."""
+    :class:`~xcheck.fields.TorqueModel` or None. Where nothing can be derived (a motion of more than
+    :data:`MAX_DERIVE_TURN` rad), the seed's ladder (:func:`seed_defaults`), saying why."""
     from .integrators.dop853 import dop853_at
     from .reference import own_period
 
@@ -105,13 +111,13 @@ def derive(inertia, q0, omega0, duration: float | None, torque=None) -> StudyDef
     span = candidates[0]
     turned = float(np.linalg.norm(omega0)) * span
     if turned > MAX_DERIVE_TURN:
-        raise ValueError(f"the body turns {turned:.3g} rad over {span:g} s: too fast to derive steps from (at most "
-                         f"{MAX_DERIVE_TURN:g} rad)")
+        return seed_defaults(span, f"the body turns {turned:.3g} rad over {span:g} s: too fast to derive steps from "
+                                   f"(at most {MAX_DERIVE_TURN:g} rad)")
     try:
         _, w = dop853_at(I, q0, omega0, span, np.linspace(0.0, span, 65), torque=torque, rtol=1e-10, atol=1e-12,
                          max_steps=200_000)
     except RuntimeError as exc:
-        raise ValueError(f"its motion could not be sampled to derive steps from ({exc})") from None
+        return seed_defaults(span, f"its motion could not be sampled to derive steps from ({exc})")
     fastest = float(np.max(np.linalg.norm(w, axis=1)))
     if fastest == 0.0:  # at rest: nothing to resolve (the study says it is vacuous)
         duration = candidates[-1]
@@ -187,6 +193,18 @@ def derive(inertia, q0, omega0, duration: float | None, torque=None) -> StudyDef
     why["final_error"] = (f"{limit:g} rad: 1e-9, or 100 times the round-off floor at the finest step "
                           f"({floor:.2g} rad predicted: eps x the turn x sqrt(steps)), whichever is larger")
     return StudyDefaults(steps, quick, duration, limit, limit, why)
+
+
+def seed_defaults(duration: float, why: str) -> StudyDefaults:
+    """Seed 004's ladder (and its quick one), the steps longer than ``duration`` dropped, where nothing is derived
+    (``why``, said with each value)."""
+    steps = tuple(v for v in SEED_STEPS if v <= duration) or (duration,)
+    quick = tuple(v for v in SEED_QUICK_STEPS if v <= duration) or (duration,)
+    said = f"seed 004's, not derived from the body: {why}"
+    return StudyDefaults(steps, quick, duration, 1e-9, 1e-9, {"duration": f"{duration:g} s ({said})",
+                                                              "steps": f"{_label(steps[0])} … {_label(steps[-1])} s ({said})",
+                                                              "quick_steps": f"{_label(quick[0])} … {_label(quick[-1])} s ({said})",
+                                                              "final_error": "1e-09 rad"})
 
 
 class _Candidates(list):

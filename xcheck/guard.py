@@ -18,7 +18,7 @@ from . import rotations as rot
 from .body import principal_axes
 from .reference import _DOP853_STEPS_PER_RAD, ReferenceFailure, _inputs, exact_kind, exact_reference
 
-__all__ = ["check_exact", "ReferenceCheck", "guard_times", "GUARD_BOUND", "GUARD_POINTS", "CONDITIONING_ULPS"]
+__all__ = ["check_exact", "stand_in", "ReferenceCheck", "guard_times", "GUARD_BOUND", "GUARD_POINTS", "CONDITIONING_ULPS"]
 
 
 #: An exact reference farther than this [rad] from its independent check is not used (unless the check itself is
@@ -118,7 +118,7 @@ def check_exact(inertia, q0, omega0, duration: float, torque=None, times=None) -
     uncertainty where that is larger (DOP853's error, estimated from a second run, or the motion's conditioning:
     see :data:`CONDITIONING_ULPS`), the closed form is used; else, or where it cannot be computed, the study
     falls back to the DOP853 run, saying why (:class:`ReferenceCheck`)."""
-    from .integrators.dop853 import dop853_at, dop853_dense
+    from .integrators.dop853 import dop853_at
 
     I, q0, omega0, _ = _inputs(inertia, q0, omega0, [0.0])
     times = guard_times(duration) if times is None else np.unique(np.asarray(times, dtype=float))
@@ -129,13 +129,9 @@ def check_exact(inertia, q0, omega0, duration: float, torque=None, times=None) -
                          max_steps=GUARD_MAX_STEPS)[0]
 
     def fallback(why, **found):
-        try:
-            solution = dop853_dense(I, q0, omega0, duration, torque=torque, rtol=GUARD_RTOL, atol=GUARD_ATOL,
-                                    max_steps=GUARD_MAX_STEPS)
-        except RuntimeError as exc:
-            raise ReferenceFailure(f"the {kind} was not used ({why}), and DOP853 could not stand in: {exc}") from None
         return ReferenceCheck(kind, len(times), bound=found.pop("bound", GUARD_BOUND), passed=False, why=why,
-                              solution=solution, **found)
+                              solution=stand_in(I, q0, omega0, duration, torque, f"the {kind} was not used ({why})"),
+                              **found)
 
     turned = float(np.linalg.norm(omega0)) * float(duration)
     if _DOP853_STEPS_PER_RAD * turned > GUARD_MAX_STEPS:  # used unchecked, saying so
@@ -166,6 +162,18 @@ def check_exact(inertia, q0, omega0, duration: float, torque=None, times=None) -
         return ReferenceCheck(kind, len(times), passed=True, **found)
     return fallback(f"it is {difference:.2g} rad from DOP853 at t = {at_time:.6g} s, beyond the bound {bound:.1e} rad "
                     "(the check's own uncertainty included)", **found)
+
+
+def stand_in(inertia, q0, omega0, duration: float, torque, why: str):
+    """The reference that stands in for a closed form the guard refused (``why``): the compiled DOP853 at the guard's
+    own tolerances, its dense output kept (:class:`ReferenceFailure` where it cannot be run)."""
+    from .integrators.dop853 import dop853_dense
+
+    try:
+        return dop853_dense(inertia, q0, omega0, duration, torque=torque, rtol=GUARD_RTOL, atol=GUARD_ATOL,
+                            max_steps=GUARD_MAX_STEPS)
+    except RuntimeError as exc:
+        raise ReferenceFailure(f"{why}, and DOP853 could not stand in: {exc}") from None
 
 
 def _sensitivity(run, inertia, omega0) -> float:

@@ -19,6 +19,7 @@ import numpy as np
 
 from . import rotations as rot
 from .body import RigidBody
+from .paths import xml_root
 
 __all__ = ["ModelError", "MJCFBody", "Wheel", "load_body", "load_mujoco", "composite_inertia", "initial_state", "InitialState", "DEFAULT_RATE",
            "DIPOLE_NUMERIC"]
@@ -293,18 +294,6 @@ def initial_state(path, keyframe: str | None = None) -> InitialState:
                         names, tuple(notes), body=body, wheel_speeds=speeds)
 
 
-def _root_element(path) -> str | None:
-    """The root element's name of an XML file (None where it cannot be read: MuJoCo's parser then says why)."""
-    import xml.etree.ElementTree as ET
-
-    try:
-        for _, element in ET.iterparse(path, events=("start",)):
-            return element.tag
-    except (ET.ParseError, OSError):
-        return None
-    return None
-
-
 def _written_key_quaternion(path, k: int, qs: slice) -> np.ndarray | None:
     """The quaternion slots ``qs`` of the ``k``-th ``<key>`` as written in the MJCF file itself (before MuJoCo's
     compiler normalises them), or None where the file does not say (a ``<key>`` in an included file, no ``qpos``)."""
@@ -319,7 +308,7 @@ def _written_key_quaternion(path, k: int, qs: slice) -> np.ndarray | None:
 
 
 def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
-    root = _root_element(path)
+    root = xml_root(path)
     if root is not None and root != "mujoco":  # MuJoCo would read a URDF too, and build a robot of it
         what = "a URDF robot description (<robot>)" if root == "robot" else f"an XML file whose root is <{root}>"
         raise ModelError(f"{where}: {what}, not an MJCF model (<mujoco>): convert it with MuJoCo: m = "

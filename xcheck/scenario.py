@@ -17,8 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from . import rotations as rot
+from .defaults import SEED_QUICK_STEPS, SEED_STEPS, derive
 from .torque_terms import TORQUE_KINDS, copy_torque, magnetic_term, torque_terms  # noqa: F401 (re-exported)
-from .paths import BUNDLED_MODELS
+from .paths import BUNDLED_MODELS, foreign_model
 from .trajectory import check_initial_state
 
 if sys.version_info >= (3, 11):
@@ -28,15 +29,14 @@ else:  # pragma: no cover
 
 __all__ = ["Scenario", "ScenarioError", "load_scenario", "check_scenario_model", "scenario_from_model",
            "model_scenario_text", "is_model_arg", "bundled_scenarios", "build_torque", "torque_parts",
-           "resolve_scenario", "check_name", "check_steps", "fill_derived", "torque_terms", "magnetic_term", "copy_torque", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
+           "resolve_scenario", "check_name", "check_steps", "fill_derived", "foreign_model", "torque_terms", "magnetic_term", "copy_torque", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
            "ADAPTIVE_TURN", "default_adaptive_step",
            "SCENARIO_DIR"]
 
 SCENARIO_DIR = BUNDLED_MODELS / "scenarios"
-#: Seed 004 §3.3: 1/2, 1/4, ..., 1/4096 s.
-DEFAULT_STEPS = tuple(2.0**-k for k in range(1, 13))
-#: ``--quick``: five steps, 1/64 ... 1/1024 s, where every fourth-order method is near its asymptotic range.
-QUICK_STEPS = tuple(2.0**-k for k in range(6, 11))
+#: Seed 004 §3.3's ladder, 1/2 ... 1/4096 s, and the quick one, 1/64 ... 1/1024 s: a file's provisional steps until
+#: its body's are derived (:func:`fill_derived`)
+DEFAULT_STEPS, QUICK_STEPS = SEED_STEPS, SEED_QUICK_STEPS
 #: An adaptive method's study is a ladder of its own relative tolerances (its absolute tolerance keeps the
 #: method's own proportion), not of its step: 1e-3 (scipy's default, seed 001's) to 1e-10 by decades ...
 DEFAULT_TOLERANCES = tuple(10.0**-k for k in range(3, 11))
@@ -464,15 +464,7 @@ def check_scenario_model(scenario: Scenario) -> None:
 def fill_derived(scenario: Scenario, body, torque) -> None:
     """The steps, quick steps and limits a scenario file left out, derived from its body and motion
     (:func:`xcheck.defaults.derive`), in place; each stated among its assumptions (the report says them)."""
-    from .defaults import derive
-
-    try:
-        d = derive(body.inertia_for(scenario.inertia), scenario.q0, scenario.omega0, scenario.duration, torque)
-    except ValueError as exc:  # kept: the seed's ladder, said
-        scenario.assumptions = tuple(scenario.assumptions) + (
-            f"the default steps (seed 004's, 1/2 … 1/4096 s; quick 1/64 … 1/1024 s), not derived from the body: {exc}",)
-        scenario.derive = ()
-        return
+    d = derive(body.inertia_for(scenario.inertia), scenario.q0, scenario.omega0, scenario.duration, torque)
     said = []
     if "steps" in scenario.derive:
         scenario.steps = d.steps
@@ -606,35 +598,6 @@ def bundled_scenarios() -> dict[str, Path]:
     return {p.stem: p for p in sorted(SCENARIO_DIR.glob("*.toml"))}
 
 
-#: Model formats xcheck does not read, by file ending: what they are, and how MuJoCo makes MJCF of them.
-FOREIGN_MODELS = {".urdf": "a URDF robot description", ".sdf": "an SDF (Gazebo) model", ".mjb": "a compiled MuJoCo model",
-                  ".usd": "a USD scene", ".usda": "a USD scene", ".dae": "a COLLADA mesh", ".stl": "a mesh",
-                  ".obj": "a mesh"}
-_TO_MJCF = ("xcheck reads MJCF (.xml); MuJoCo converts a URDF: m = mujoco.MjModel.from_xml_path('robot.urdf'); "
-            "mujoco.mj_saveLastXML('robot.xml', m), then give the body a <freejoint/>")
-
-
-def foreign_model(path) -> str | None:
-    """Why ``path`` (given where a scenario goes) is a model xcheck does not read — a URDF, an SDF, a compiled or
-    mesh file, by its ending or, for an XML file, its root element — or None."""
-    path = Path(str(path).partition("#")[0])
-    suffix = path.suffix.lower()
-    if suffix in FOREIGN_MODELS:
-        what = FOREIGN_MODELS[suffix]
-    elif suffix in ("", ".xml") or not path.is_file():
-        return None
-    else:
-        try:
-            with path.open("rb") as f:
-                head = f.read(512).lstrip(b"\xef\xbb\xbf \t\r\n")
-        except OSError:
-            return None
-        if not head.startswith(b"<"):
-            return None
-        what = "a URDF robot description" if b"<robot" in head else "an XML file"
-    return f"{path}: {what}, not an MJCF model nor a scenario file: {_TO_MJCF}"
-
-
 def resolve_scenario(name_or_path) -> Scenario:
     """A bundled scenario by name, a scenario file by path, or an MJCF file alone (``MODEL.xml``, or
     ``MODEL.xml#KEYFRAME``: :func:`scenario_from_model`); a URDF or another model format is refused, naming it
@@ -725,14 +688,7 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
     own = body.own_torque(state.omega0, state.wheel_speeds)
     why_not = exact_why_not(body.inertia, own)
     reference = "exact" if why_not is None else "dop853"
-    from .defaults import StudyDefaults, derive
-
-    try:  # steps, duration and limits from the body
-        derived = derive(body.inertia, state.q0, state.omega0, None, own)
-    except ValueError as exc:  # the seed's defaults, said
-        derived = StudyDefaults(DEFAULT_STEPS, QUICK_STEPS, 10.0, 1e-9, 1e-9,
-                                {"duration": f"10 s (not derived: {exc})", "steps": "1/2 … 1/4096 s, seed 004's",
-                                 "quick_steps": "1/64 … 1/1024 s", "final_error": "1e-9 rad"})
+    derived = derive(body.inertia, state.q0, state.omega0, None, own)  # steps, duration and limits from the body
     duration = derived.duration
     margins = None
     try:

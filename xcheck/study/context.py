@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..guard import check_exact, guard_times
+from ..guard import check_exact, guard_times, stand_in
 from ..reference import ReferenceFailure, dop853_solution, exact_reference
 from ..runners import RUNNERS, RunContext
 from ..scenario import Scenario, build_torque, torque_parts
@@ -67,12 +67,8 @@ class _Reference:
         if self.kind == "exact" and scenario.guarded and scenario.guarded[0] == scenario_key(scenario):
             self.check = scenario.guarded[1]  # checked where the study was planned
             if self.check["used"] == "dop853":
-                from ..guard import GUARD_ATOL, GUARD_MAX_STEPS, GUARD_RTOL
-                from ..integrators.dop853 import dop853_dense
-
                 self.used = "dop853"
-                self.dense = dop853_dense(ctx.inertia, ctx.q0, ctx.omega0, ctx.duration, torque=ctx.torque,
-                                          rtol=GUARD_RTOL, atol=GUARD_ATOL, max_steps=GUARD_MAX_STEPS)
+                self.dense = stand_in(ctx.inertia, ctx.q0, ctx.omega0, ctx.duration, ctx.torque, self.check["text"])
         elif self.kind == "exact":
             grids = (*scenario.steps, *scenario.quick_steps, scenario.adaptive_step)
             check = check_exact(ctx.inertia, ctx.q0, ctx.omega0, ctx.duration, ctx.torque,
