@@ -126,6 +126,8 @@ def _axis_column(axis) -> tuple[str, str, bool]:
     """(column of the tidy table, axis label, categorical?) of a swept axis."""
     if axis.name in SUMMARIES:
         return SUMMARIES[axis.name][0], SUMMARIES[axis.name][1], False
+    if axis.name == "torques":
+        return axis.name, "torque terms kept", True
     if axis.name in ("model", "field"):
         return axis.name, AXES[axis.name].help, True
     label = AXES[axis.name].help if axis.name in AXES else f"{axis.name.removeprefix('field.')} (field model)"

@@ -437,6 +437,11 @@ def axis_summary(name: str, value) -> tuple[str, float]:
     return SUMMARIES[name][0], float(np.linalg.norm(v))
 
 
+def kinds_label(kinds: list) -> str:
+    """A ``torques`` axis value as one label: the kinds kept, joined by ``+``; ``none`` for torque free."""
+    return "+".join(kinds) or "none"
+
+
 _COMPONENTS = {"attitude": ("w", "x", "y", "z"), "inertia": ("1", "2", "3")}
 
 
@@ -445,7 +450,9 @@ def flat_params(params: dict) -> dict:
     ``attitude_w``, ``inertia_1``) and a summary (:func:`xcheck.sweep.spec.axis_summary`), a model its file name."""
     out = {}
     for name, value in params.items():
-        if isinstance(value, list):
+        if AXES.get(name) is not None and AXES[name].kind == "kinds":  # torque kinds kept: one text column
+            out[name] = kinds_label(value)
+        elif isinstance(value, list):
             for comp, v in zip(_COMPONENTS.get(name, ("x", "y", "z")), value):
                 out[f"{name}_{comp}"] = v
             label, summary = axis_summary(name, value)
