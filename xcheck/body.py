@@ -6,7 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["RigidBody", "validate_inertia", "principal_axes", "TRIANGLE_RTOL", "MOMENT_RANGE"]
+__all__ = ["RigidBody", "validate_inertia", "principal_axes", "TRIANGLE_RTOL", "MOMENT_RANGE", "MAX_RATE",
+           "MAX_GRAVITY"]
 
 #: Relative slack allowed in the triangle inequality ``I_i <= I_j + I_k``, so that thin plates
 #: (``I_3 = I_1 + I_2`` exactly, like the seed 001 gyroscope) pass after rounding.
@@ -16,6 +17,13 @@ _NAMES = ("I1", "I2", "I3")
 #: Principal moments [kg m^2] xcheck integrates: a dust grain's to a moon's. Beyond, the energy and momentum products
 #: of the references under- or overflow (1e-300 once ran a sweep's cell into NaN warnings instead of a refusal).
 MOMENT_RANGE = (1e-30, 1e40)
+#: The fastest body rate and wheel speed [rad/s] xcheck takes (about a million rpm: past any spinning machine, an
+#: ultracentrifuge's 1e4 rad/s included). Beyond, a step that resolves the motion underflows the duration's
+#: resolution, and 1e300 overflowed the energy into NaN deep inside a derivation.
+MAX_RATE = 1e5
+#: The strongest gravity [m/s^2] a top may turn in: a thousand g (a top in a centrifuge). 1e300 overflowed its
+#: torque into NaN.
+MAX_GRAVITY = 1e4
 
 
 def validate_inertia(inertia, *, name: str = "inertia") -> np.ndarray:

@@ -664,6 +664,7 @@ def _cmd_sweep(args) -> int:
 def _cmd_init(args) -> int:
     """The scenario file an MJCF file stands for, every key present and commented, to edit."""
     from .report.io import check_output_file, write_text_atomic
+    from .paths import input_problem
     from .scenario import foreign_model, is_model_arg, model_scenario_text, split_model_arg
 
     foreign = foreign_model(args.model)
@@ -673,8 +674,9 @@ def _cmd_init(args) -> int:
         raise UsageError(f"MODEL: expected an MJCF file (.xml, optionally #KEYFRAME), got {args.model!r}")
     path, keyframe = split_model_arg(args.model)
     keyframe = args.keyframe if args.keyframe is not None else keyframe
-    if not path.is_file():
-        raise UsageError(f"MODEL: {path}: no such MJCF file")
+    problem = input_problem(path, "MJCF file")
+    if problem:
+        raise UsageError(f"MODEL: {problem}")
     out = Path(args.out) if args.out else Path(f"xcheck_{path.stem}.toml")
     check_output_file(out, "--out", suffixes=(".toml",))
     if out.exists() and not args.force:

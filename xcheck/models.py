@@ -10,6 +10,7 @@ stored as ``<custom><numeric name="xcheck_dipole" data="mx my mz"/></custom>`` [
 from __future__ import annotations
 
 import copy
+import math
 import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -18,8 +19,9 @@ import mujoco
 import numpy as np
 
 from . import rotations as rot
-from .body import RigidBody
-from .paths import xml_root
+from .body import MAX_GRAVITY, MAX_RATE, RigidBody
+from .paths import input_problem, xml_root
+from .trajectory import check_initial_state
 
 __all__ = ["ModelError", "MJCFBody", "Wheel", "load_body", "load_mujoco", "composite_inertia", "initial_state", "InitialState", "DEFAULT_RATE",
            "DIPOLE_NUMERIC"]
@@ -129,9 +131,10 @@ class MJCFBody(RigidBody):
         if wheel_speeds is None:
             return np.array([w.speed for w in self.wheels], dtype=float)
         speeds = np.asarray(wheel_speeds, dtype=float)
-        if speeds.shape != (len(self.wheels),) or not np.all(np.isfinite(speeds)):
-            raise ValueError(f"wheel_speeds: expected {len(self.wheels)} finite speeds [rad/s] (one per wheel of "
-                             f"{self.path}: {', '.join(w.name for w in self.wheels)}), got {np.ravel(speeds).tolist()}")
+        if speeds.shape != (len(self.wheels),) or not np.all(np.abs(speeds) <= MAX_RATE):
+            raise ValueError(f"wheel_speeds: expected {len(self.wheels)} finite speeds [rad/s] of at most "
+                             f"{MAX_RATE:.0e} (one per wheel of {self.path}: {', '.join(w.name for w in self.wheels)}), "
+                             f"got {np.ravel(speeds).tolist()}")
         return speeds
 
     def wheels_torque(self, omega0, wheel_speeds=None):
@@ -203,8 +206,9 @@ def load_mujoco(path) -> tuple[mujoco.MjModel, MJCFBody]:
     """
     path = Path(path)
     where = str(path)
-    if not path.is_file():
-        raise ModelError(f"{where}: no such MJCF file")
+    problem = input_problem(path, "MJCF file")
+    if problem:
+        raise ModelError(problem)
     stat = path.stat()
     key = (str(path.resolve()), where, stat.st_mtime_ns, stat.st_size)
     if key not in _LOADED:
@@ -289,6 +293,15 @@ def initial_state(path, keyframe: str | None = None) -> InitialState:
         notes.append("the keyframe's body rate is zero: the body does not turn, and every method is exact")
     which = f"keyframe {names[k]!r}" + (" (the first of the model's)" if keyframe is None and len(names) > 1 else "")
     speeds = tuple(float(qvel[w.dof]) for w in body.wheels)
+    try:
+        check_initial_state(q0, omega0)
+    except ValueError as exc:
+        raise ModelError(f"{where}: {which}: the {body.joint} joint's qvel, the body rate {omega0.tolist()} rad/s: "
+                         f"{str(exc).partition(': ')[2]}") from None
+    for w, speed in zip(body.wheels, speeds):
+        if not abs(speed) <= MAX_RATE:
+            raise ModelError(f"{where}: {which}: the qvel of wheel '{w.name}', {speed:g} rad/s: expected a finite "
+                             f"speed of at most {MAX_RATE:.0e} rad/s")
     return InitialState(q0, omega0, f"the {which}: qpos and qvel of the {body.joint} joint"
                         + (" and of the wheels' hinges" if body.wheels else ""), names[k],
                         names, tuple(notes), body=body, wheel_speeds=speeds)
@@ -325,6 +338,7 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
     def name(obj, i):
         return mujoco.mj_id2name(model, obj, i) or f"#{i}"
 
+    _check_finite(model, refuse, name)
     turning = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL))
     hinge = int(mujoco.mjtJoint.mjJNT_HINGE)
     roots = [j for j in range(model.njnt) if int(model.jnt_type[j]) in turning]
@@ -394,6 +408,15 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
                          "about its pivot")
     elif joint == "ball":
         gravity = model.opt.gravity.copy()
+        if not math.hypot(*gravity) <= MAX_GRAVITY:
+            refuse(f"<option gravity=\"{' '.join(f'{g:g}' for g in gravity)}\">: |g| = {math.hypot(*gravity):.3g} "
+                   f"m/s^2, beyond the {MAX_GRAVITY:.0e} m/s^2 (a thousand g) a top may turn in")
+        compensated = [b for b in parts if model.body_gravcomp[b] != 0]
+        if compensated:  # MuJoCo pushes up by gravcomp x m g at the part's centre: part of gravity's torque gone
+            b = compensated[0]
+            refuse(f"body '{name(mujoco.mjtObj.mjOBJ_BODY, b)}' has gravcomp=\"{model.body_gravcomp[b]:g}\": MuJoCo "
+                   "would cancel that share of its weight, and of gravity's torque about the pivot, which xcheck's "
+                   "top does not model; remove gravcomp (or switch gravity off with <flag gravity=\"disable\"/>)")
 
     if len(parts) == 1 and not wheels:  # one body: MuJoCo's own mass, principal moments and frame, as compiled
         mass, moments, iquat = model.body_mass[body_id], model.body_inertia[body_id].copy(), model.body_iquat[body_id]
@@ -415,6 +438,11 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
             notes.append(f"a gyrostat: {len(wheels)} axisymmetric wheel(s) ({', '.join(w.name for w in wheels)}); "
                          "the inertia is the whole body's about its centre of mass less each wheel's axial moment, "
                          "the wheels' momentum a torque of the model's own")
+        if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_ACTUATION and any(w.pulse for w in wheels):
+            notes.append("actuation disabled by the model's <flag actuation=\"disable\"/>: MuJoCo applies no "
+                         "motor's force, so the pulses of "
+                         f"{', '.join(repr(w.name) for w in wheels if w.pulse)} are left out: the wheels turn freely")
+            wheels = [replace(w, pulse=None, actuator=-1) for w in wheels]
         notes += [f"wheel '{w.name}' has a motor but no <numeric name=\"{PULSE_NUMERIC}ACTUATOR\"> commands it: the "
                   "motor exerts nothing, and the wheel turns freely" for w in wheels if w.actuator >= 0 and w.pulse is None]
     centre, reference = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
@@ -552,6 +580,9 @@ def _wheels(model, root: int, joint: str, hinges, refuse, name) -> list:
                    "kg m^2 in its frame has no two equal moments about that axis); xcheck models balanced, "
                    "axisymmetric wheels")
         speed = float(model.key_qvel[0][dof]) if model.nkey else 0.0
+        if not abs(speed) <= MAX_RATE:
+            refuse(f"{where}: its speed in the first keyframe, '{name(mujoco.mjtObj.mjOBJ_KEY, 0)}', is {speed:g} "
+                   f"rad/s: expected a finite speed of at most {MAX_RATE:.0e} rad/s")
         found.append(Wheel(name=jname, axis=tuple((pose[b][1] @ axis).tolist()), moment=Js, dof=dof,
                            qpos=int(model.jnt_qposadr[j]), body=b, speed=speed))
     by_joint = {j: k for k, j in enumerate(hinges)}
@@ -590,14 +621,51 @@ def _wheels(model, root: int, joint: str, hinges, refuse, name) -> list:
         k = actuators[aname]
         i = found[k].actuator
         peak = float(values[0])
-        for what, limited, lo_hi, value in (("ctrlrange", model.actuator_ctrllimited[i], model.actuator_ctrlrange[i],
-                                             peak / found[k].gain),
-                                            ("forcerange", model.actuator_forcelimited[i], model.actuator_forcerange[i],
-                                             peak)):
+        ctrl = peak / found[k].gain
+        if not abs(ctrl) <= MUJOCO_MAX_CTRL:  # MuJoCo zeroes every control where one is beyond (mju_isBad)
+            refuse(f"actuator '{aname}': its pulse of {peak:g} N m needs a control of {ctrl:.3g} (gear times gain "
+                   f"{found[k].gain:.3g}), beyond the {MUJOCO_MAX_CTRL:.0e} MuJoCo takes (it would zero every control "
+                   "and exert nothing): give the motor a gear near 1")
+        hinge_j = hinges[k]
+        for what, limited, lo_hi, value in (
+                ("ctrlrange", model.actuator_ctrllimited[i], model.actuator_ctrlrange[i], ctrl),
+                ("forcerange", model.actuator_forcelimited[i], model.actuator_forcerange[i],
+                 peak / model.actuator_gear[i, 0]),  # the actuator's force; the wheel's torque is gear x force
+                (f"joint '{found[k].name}' actuatorfrcrange", model.jnt_actfrclimited[hinge_j],
+                 model.jnt_actfrcrange[hinge_j], peak)):
             if limited and not (lo_hi[0] <= min(0.0, value) and max(0.0, value) <= lo_hi[1]):
-                refuse(f"actuator '{aname}': its pulse needs {value:g} within its {what} {lo_hi.tolist()}")
+                refuse(f"actuator '{aname}': its pulse needs {value:g} within its {what} {lo_hi.tolist()} (MuJoCo "
+                       "would clip it, which xcheck's pulse does not model)")
         found[k] = replace(found[k], pulse=(peak, float(values[1]), float(values[2])))
     return found
+
+
+#: MuJoCo's bound on a control (``mjMAXVAL``): beyond it, ``mju_isBad`` zeroes every control of the step.
+MUJOCO_MAX_CTRL = 1e10
+
+
+def _check_finite(model, refuse, name) -> None:
+    """Refuse a model whose numbers xcheck reads (gravity, the bodies' poses and inertia, the joints' axes and
+    positions, the actuators' gears and gains, the custom numerics) hold a NaN or an inf, naming the element."""
+    O = mujoco.mjtObj
+    arrays = (("<option gravity>", model.opt.gravity[None], None), ("<body pos>", model.body_pos, O.mjOBJ_BODY),
+              ("<body quat>", model.body_quat, O.mjOBJ_BODY), ("<inertial mass>", model.body_mass[:, None], O.mjOBJ_BODY),
+              ("<inertial> moments", model.body_inertia, O.mjOBJ_BODY), ("<inertial pos>", model.body_ipos, O.mjOBJ_BODY),
+              ("<inertial quat>", model.body_iquat, O.mjOBJ_BODY), ("<joint axis>", model.jnt_axis, O.mjOBJ_JOINT),
+              ("<joint pos>", model.jnt_pos, O.mjOBJ_JOINT), ("gear", model.actuator_gear, O.mjOBJ_ACTUATOR),
+              ("gain", model.actuator_gainprm[:, :1], O.mjOBJ_ACTUATOR))
+    for what, values, obj in arrays:
+        bad = np.flatnonzero(~np.all(np.isfinite(values), axis=1))
+        if bad.size:
+            i = int(bad[0])
+            whose = "" if obj is None else f"{obj.name.removeprefix('mjOBJ_').lower()} '{name(obj, i)}': "
+            refuse(f"{whose}{what} {values[i].tolist()} is not finite: give finite numbers")
+    if not np.all(np.isfinite(model.numeric_data)):
+        for n in range(model.nnumeric):
+            adr, size = int(model.numeric_adr[n]), int(model.numeric_size[n])
+            if not np.all(np.isfinite(model.numeric_data[adr:adr + size])):
+                refuse(f"<numeric name=\"{name(O.mjOBJ_NUMERIC, n)}\"> data "
+                       f"{model.numeric_data[adr:adr + size].tolist()} is not finite: give finite numbers")
 
 
 def _possible_contact(model):

@@ -4,9 +4,42 @@ MuJoCo."""
 
 from __future__ import annotations
 
+import errno
+import os
+import stat
 from pathlib import Path
 
-__all__ = ["BUNDLED_MODELS", "xml_root", "foreign_model", "FOREIGN_MODELS"]
+__all__ = ["BUNDLED_MODELS", "xml_root", "foreign_model", "FOREIGN_MODELS", "MAX_INPUT_BYTES", "input_problem"]
+
+#: The largest input file xcheck reads [bytes]: a scenario, a sweep spec, an MJCF model, a field table. The bundled
+#: ones are under 0.1 MB and an MJCF of 10 000 geoms is 1 MB; a larger file is a slip (a log, a disk image, /dev/zero
+#: through a link) that would otherwise be read whole into memory.
+MAX_INPUT_BYTES = 64 * 2**20
+
+
+def input_problem(path, what: str = "file", *, limit: int = MAX_INPUT_BYTES) -> str | None:
+    """Why ``path`` cannot be read as an input ``what`` (a scenario, an MJCF model, ...) — missing, a symlink loop, a
+    folder, not a regular file (a FIFO would block the reader forever, a device never end), larger than ``limit`` —
+    as ``"PATH: reason"``, or None where it can. Only the file's metadata is looked at."""
+    a = "an" if what[:1] in "aeiouM" else "a"  # (an MJCF file)
+    try:
+        st = os.stat(path)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            return f"{path}: a loop of symbolic links, not {a} {what}"
+        if exc.errno == errno.ENOENT:
+            return f"{path}: no such {what}"
+        return f"{path}: cannot read the {what} ({exc.strerror})"
+    if stat.S_ISDIR(st.st_mode):
+        return f"{path}: a folder, not {a} {what}"
+    if not stat.S_ISREG(st.st_mode):
+        kind = "a FIFO" if stat.S_ISFIFO(st.st_mode) else "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(
+            st.st_mode) else "a socket" if stat.S_ISSOCK(st.st_mode) else "not a regular file"
+        return f"{path}: {kind}, not {a} {what} (xcheck reads regular files)"
+    if st.st_size > limit:
+        return (f"{path}: {st.st_size:,} bytes, more than the {limit // 2**20} MB {a} {what} may have (the bundled ones "
+                "are under 0.1 MB): not read")
+    return None
 
 
 def _bundled_folder() -> Path:
@@ -47,7 +80,8 @@ _TO_MJCF = ("xcheck reads MJCF (.xml); MuJoCo converts a URDF: m = mujoco.MjMode
 def foreign_model(path) -> str | None:
     """Why ``path`` (given where a scenario goes) is a model xcheck does not read — a URDF, an SDF, a compiled or
     mesh file, by its ending or, for an XML file, its root element — or None."""
-    path = Path(str(path).partition("#")[0])
+    text = str(path)
+    path = Path(text if Path(text).suffix or "#" not in text else text.rpartition("#")[0])
     suffix = path.suffix.lower()
     if suffix in FOREIGN_MODELS:
         what = FOREIGN_MODELS[suffix]

@@ -493,6 +493,9 @@ def rigid_body_rhs(inertia, torque=None):
                              q[0] * w[2] + q[1] * w[1] - q[2] * w[0]])
         h = I @ w
         wxh = np.array([w[1] * h[2] - w[2] * h[1], w[2] * h[0] - w[0] * h[2], w[0] * h[1] - w[1] * h[0]])
+        if not np.all(np.isfinite(tau)):  # scipy's DOP853 would spin inside one step for ever
+            raise ReferenceFailure(f"the torque is not finite at t = {t:.6g} s ({np.ravel(tau).tolist()} N m at omega = "
+                                   f"{w.tolist()} rad/s): no solver can step through it")
         wd = Iinv @ (tau - wxh)  # (np.cross costs ten times more on 3-vectors)
         return np.concatenate([qd, wd])
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 import sys
 from dataclasses import dataclass, field
@@ -19,7 +20,7 @@ import numpy as np
 from . import rotations as rot
 from .defaults import SEED_QUICK_STEPS, SEED_STEPS, derive
 from .torque_terms import TORQUE_KINDS, copy_torque, magnetic_term, torque_terms  # noqa: F401 (re-exported)
-from .paths import BUNDLED_MODELS, foreign_model
+from .paths import BUNDLED_MODELS, foreign_model, input_problem
 from .trajectory import check_initial_state
 
 if sys.version_info >= (3, 11):
@@ -243,10 +244,13 @@ class _Reader:
         value = self.get(key, "string", None, required)
         if value is None:
             return None
-        p = (self.path.parent / value).resolve()
-        if not p.is_file():
-            self.fail(key, f"no such file {value!r} (resolved to {p})")
-        return p
+        p = self.path.parent / value
+        problem = input_problem(p)
+        if problem and os.path.lexists(p) and not problem.endswith("no such file"):
+            self.fail(key, problem)
+        if problem:
+            self.fail(key, f"no such file {value!r} (resolved to {os.path.abspath(p)})")
+        return p.resolve()
 
     def finish(self):
         unknown = sorted(set(self.table) - self.used)
@@ -268,6 +272,9 @@ def load_scenario(path, *, check_model: bool = True) -> Scenario:
     foreign = foreign_model(path)
     if foreign:
         raise ScenarioError(foreign)
+    problem = input_problem(path, "scenario file")
+    if problem:
+        raise ScenarioError(problem)
     try:
         raw = path.read_bytes()
     except OSError as exc:
@@ -331,6 +338,10 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
     if euler0 is not None:
         q0 = rot.euler_to_quat(euler0, sequence)
         omega0 = rot.euler_rates_to_omega(euler0, rates, sequence)
+        try:
+            q0, omega0 = check_initial_state(q0, omega0)
+        except ValueError as exc:
+            ini.fail("euler_rates", str(exc).partition(": ")[2])
     wheel_speeds = None
     if ini.has("wheel_speeds"):
         wheel_speeds = tuple(float(v) for v in ini.get("wheel_speeds", "numbers"))
@@ -444,6 +455,8 @@ def check_scenario_model(scenario: Scenario) -> None:
         torque = build_torque(scenario, body)
     except ValueError as exc:
         raise ScenarioError(f"{scenario.path}: [torque]: {exc}") from None
+    if torque is not None:
+        _check_torque_finite(scenario, torque)
     if scenario.derive:
         fill_derived(scenario, body, torque)
     if scenario.reference == "exact" and torque is not None:
@@ -459,6 +472,20 @@ def check_scenario_model(scenario: Scenario) -> None:
         if why is not None:
             raise ScenarioError(f"{scenario.path}: [study] reference: 'exact' is the torque-free solution, Lagrange's "
                                 f"top or the axisymmetric gyrostat, and the body is under {torque.describe()}: {why}")
+
+
+def _check_torque_finite(scenario: Scenario, torque) -> None:
+    """Refuse a torque that is not finite at the initial state, at the start, middle and end of the run (terms whose
+    sizes overflow their sum, a drag of an absurd density): no solver can step through it (scipy's DOP853 spun at
+    t = 0 forever on one)."""
+    times = np.array([0.0, 0.5 * scenario.duration, scenario.duration])
+    values = torque.many(times, scenario.q0, scenario.omega0)
+    bad = np.flatnonzero(~np.all(np.isfinite(values), axis=1))
+    if bad.size:
+        i = int(bad[0])
+        raise ScenarioError(f"{scenario.path}: [torque]: {torque.describe()} is {values[i].tolist()} N m at t = "
+                            f"{times[i]:g} s from the initial state: not finite (a term's size overflows); give terms "
+                            "of physical size")
 
 
 def fill_derived(scenario: Scenario, body, torque) -> None:
@@ -634,9 +661,13 @@ _CHECK_HELP = {"order_tolerance": "observed order at least expected minus this",
 
 
 def split_model_arg(text: str) -> tuple[Path, str | None]:
-    """``MODEL.xml`` or ``MODEL.xml#KEYFRAME`` -> (path, keyframe name or None)."""
-    path, sep, key = str(text).partition("#")
-    return Path(path), (key if sep else None)
+    """``MODEL.xml`` or ``MODEL.xml#KEYFRAME`` -> (path, keyframe name or None). A name ending in ``.xml`` is the
+    file itself, ``#`` and all (``hash#dir/m.xml``); otherwise the keyframe follows the last ``#``."""
+    text = str(text)
+    if Path(text).suffix.lower() == ".xml":
+        return Path(text), None
+    path, sep, key = text.rpartition("#")
+    return (Path(path), key) if sep else (Path(text), None)
 
 
 def is_model_arg(text) -> bool:
@@ -787,6 +818,9 @@ def scenario_from_model(text) -> Scenario:
     :func:`model_scenario_text`): read as if from the file ``xcheck init`` writes, its assumptions kept for the
     report."""
     path, keyframe = split_model_arg(text)
+    problem = input_problem(path, "MJCF file")
+    if problem:
+        raise ScenarioError(problem)
     toml_text, assumptions = model_scenario_text(path, keyframe, model_ref=str(path.resolve()))
     scenario = _parse_scenario(toml_text, path, check_model=False)  # loaded just now, and torque free
     scenario.assumptions = assumptions

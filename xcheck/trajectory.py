@@ -104,6 +104,7 @@ def check_initial_state(q0, omega0, *, batch: bool = False) -> tuple[np.ndarray,
     an initial state is checked: our integrators, the engines and the references call it, and the scenario
     reader reports its message under the key it read.
     """
+    from .body import MAX_RATE
     from .rotations import _unit_quat
 
     def numbers(x, name, n, unit):
@@ -121,6 +122,11 @@ def check_initial_state(q0, omega0, *, batch: bool = False) -> tuple[np.ndarray,
 
     q = _unit_quat(numbers(q0, "q0", 4, " [w, x, y, z]"), "q0")
     w = numbers(omega0, "omega0", 3, " [rad/s]")
+    big = float(np.max(np.abs(w))) if w.size else 0.0
+    fastest = big * float(np.max(np.linalg.norm(w / big, axis=-1))) if big > 0 else 0.0  # (1e300 squared overflows)
+    if not fastest <= MAX_RATE:
+        raise ValueError(f"omega0: |omega| = {fastest:.3g} rad/s, beyond the {MAX_RATE:.0e} rad/s xcheck takes (a million "
+                         "rpm: faster than any spinning machine)")
     if batch and q.shape[0] != w.shape[0]:
         raise ValueError(f"q0, omega0: expected as many attitudes as body rates, got {q.shape[0]} and {w.shape[0]}")
     return q, w

@@ -30,6 +30,11 @@ class IGRFField(WorldFieldTable):
             date = datetime.fromisoformat(str(epoch))
         except ValueError:
             raise ValueError(f"epoch: expected an ISO date like 2010-11-20T00:00:00, got {epoch!r}") from None
+        g, _ = ppigrf.ppigrf.read_shc()  # the coefficients' span: ppigrf extrapolates beyond it, and prints on stdout
+        first, last = g.index[0].to_pydatetime(), g.index[-1].to_pydatetime()
+        if not first <= date <= last:
+            raise ValueError(f"epoch: {epoch!r} is outside the IGRF coefficients' span, {first.date()} to "
+                             f"{last.date()}: give a date within it")
         t = np.arange(0.0, float(duration) + spacing, spacing)
         r_eci = orbit_position(t, altitude_km, inclination_deg, raan_deg, arg_latitude_deg)
         g = np.radians(earth_angle_deg) + OMEGA_EARTH * t

@@ -34,11 +34,17 @@ ORBIT_KEYS = {
 }
 
 
+#: The highest circular orbit [km] of the orbit models: the Earth's Hill sphere (1.5 million km), past which the Sun,
+#: not the Earth, holds a body (1e300 overflowed the mean motion).
+MAX_ALTITUDE_KM = 1.5e6
+
+
 def circular_orbit(altitude_km, inclination_deg, raan_deg, arg_latitude_deg) -> tuple[float, float]:
     """Radius [m] and mean motion [rad/s] of a circular orbit; ValueError naming a bad argument."""
+    if not 0 < float(altitude_km) <= MAX_ALTITUDE_KM:
+        raise ValueError(f"altitude_km: expected a positive altitude of at most {MAX_ALTITUDE_KM:.2g} km (the Earth's "
+                         f"Hill sphere: beyond, no orbit about the Earth), got {altitude_km!r}")
     a = R_EARTH + 1e3 * float(altitude_km)
-    if not (np.isfinite(a) and float(altitude_km) > 0):
-        raise ValueError(f"altitude_km: expected a positive altitude in km, got {altitude_km!r}")
     for name, v in (("inclination_deg", inclination_deg), ("raan_deg", raan_deg),
                     ("arg_latitude_deg", arg_latitude_deg)):
         if not np.isfinite(float(v)):

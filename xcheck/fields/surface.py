@@ -59,12 +59,21 @@ class SolarPressureTorque(MagneticTorque):
         if not np.any(s):
             raise ValueError("sun_direction: expected a direction, got [0, 0, 0]")
         self.sun = s / np.linalg.norm(s)
-        self.force = -self.pressure * self.reflectivity * self.area * self.sun
+        with np.errstate(over="ignore"):
+            self.force = -self.pressure * self.reflectivity * self.area * self.sun
+            _check_force("pressure x reflectivity x area", float(np.max(np.abs(self.force))))
         super().__init__(self.centre, UniformField(self.force / kernel.MU0))
 
     def describe(self) -> str:
         return (f"solar pressure {np.linalg.norm(self.force):.3g} N away from the sun {np.round(self.sun, 6).tolist()} "
                 f"through the centre of pressure {self.centre.tolist()} m")
+
+
+def _check_force(what: str, size: float) -> None:
+    """A surface force [N] whose inputs' product overflows (or reaches the compiled field's overflow, as a field
+    strength of force / mu0) is a ValueError naming the inputs."""
+    if not size / kernel.MU0 < 1e300:
+        raise ValueError(f"{what}: the force is {size:.3g} N, which overflows: give physical sizes")
 
 
 class OrbitFlow(Field):
@@ -102,7 +111,9 @@ class AerodynamicTorque(MagneticTorque):
         self.drag_coefficient = _positive("drag_coefficient", drag_coefficient, "(dimensionless)")
         a, n = circular_orbit(altitude_km, inclination_deg, raan_deg, arg_latitude_deg)
         self.speed = a * n
-        self.drag = 0.5 * self.density * self.speed**2 * self.drag_coefficient * self.area  # [N]
+        with np.errstate(over="ignore"):
+            self.drag = 0.5 * self.density * self.speed**2 * self.drag_coefficient * self.area  # [N]
+            _check_force("density x drag_coefficient x area", self.drag)
         self.altitude_km = float(altitude_km)
         super().__init__(self.centre, OrbitFlow(-self.drag / kernel.MU0, n, np.radians(inclination_deg),
                                                 np.radians(raan_deg), np.radians(arg_latitude_deg)))

@@ -10,7 +10,12 @@ import numpy as np
 def load_field_table(path) -> np.ndarray:
     """Read a field table: ``#`` comment lines, an optional header line, then rows ``t, Hx, Hy, Hz``
     (comma-separated; t [s] strictly increasing, H [A/m]). Errors name the file and the line."""
+    from ..paths import input_problem
+
     path = Path(path)
+    problem = input_problem(path, "field table")
+    if problem:
+        raise ValueError(problem)
     try:
         lines = path.read_bytes().decode("utf-8-sig").splitlines()
     except OSError as exc:

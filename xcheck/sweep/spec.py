@@ -260,7 +260,12 @@ def resolve_sweep(name_or_path, *, max_cells: int | None = MAX_CELLS) -> SweepSp
 def load_sweep(path, *, max_cells: int | None = MAX_CELLS) -> SweepSpec:
     """Read and check a sweep spec; its cells are generated (``.cells``: ``{"id", "params"}``). A spec of more
     than ``max_cells`` cells (None: no limit) is refused before any cell or axis value is built."""
+    from ..paths import input_problem
+
     path = Path(path)
+    problem = input_problem(path, "sweep spec")
+    if problem:
+        raise SweepError(problem)
     try:
         data = tomllib.loads(path.read_bytes().decode("utf-8-sig"))
     except OSError as exc:
