@@ -45,8 +45,10 @@ def _die_with_parent(parent_pid: int) -> None:
 
 
 def make_pool(workers: int | None = None) -> ProcessPoolExecutor:
-    """A pool of ``workers`` spawned processes (default: the CPU count) that die with this process."""
-    return ProcessPoolExecutor(max_workers=workers or None, mp_context=multiprocessing.get_context("spawn"),
+    """A pool of ``workers`` spawned processes (default and at most: the CPU count; more would only share the CPUs,
+    each holding ~55 MB) that die with this process."""
+    cpus = os.cpu_count() or 1
+    return ProcessPoolExecutor(max_workers=min(workers or cpus, cpus), mp_context=multiprocessing.get_context("spawn"),
                                initializer=_die_with_parent, initargs=(os.getpid(),))
 
 
