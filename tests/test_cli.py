@@ -365,7 +365,7 @@ def test_argument_errors_exit_2(capsys, argv, match):
 def test_cli_subprocess_bad_input_has_no_traceback(tmp_path):
     proc = xcheck("converge", str(tmp_path / "missing.toml"))
     assert proc.returncode == 2
-    assert "cannot read the scenario" in proc.stderr and "Traceback" not in proc.stderr
+    assert "missing.toml: no such scenario file" in proc.stderr and "Traceback" not in proc.stderr
 
 
 # ------------------------------------------------------------------------------------------------

@@ -464,3 +464,34 @@ values = [0.015625, 0.0078125]
     for r in rows:
         assert (r["momentum_drift"] != "") == (r["torques"] == "none"), r
     assert float(rows[-1]["momentum_drift"]) < 1e-12
+
+
+@pytest.mark.parametrize("base, axes, needle", [
+    ("gyroscope-nonsingular", "[axes.rate_scale]\nvalues = [1.0, 1e308]", "rate_scale = 1e+308"),
+    ("gyroscope-nonsingular", "[axes.rate]\nvalues = [[1e300, 0, 0]]", "|omega| = 1e+300 rad/s"),
+    ("gyroscope-nonsingular", "[axes.rate_deg]\nvalues = [[1e300, 0, 0]]", "rate_deg = [1e+300, 0.0, 0.0]"),
+    ("rax1-momentum-bias", "[axes.wheel_speed_scale]\nvalues = [1e300]", "wheel_speed_scale = 1e+300"),
+    ("gyroscope-nonsingular", 'combine = "sample"\nsamples = 3\n[axes.rate_scale]\nrange = [1, 1e308]',
+     "starts from no state a body can have"),
+])
+def test_cells_that_start_from_no_body_state_are_refused_before_any_runs(tmp_path, capsys, base, axes, needle):
+    """Issue 37, 4: overflowing scales ran the sweep and crashed (exit 3) in the cells or after them."""
+    if axes.startswith("combine"):
+        head, _, axes = axes.partition("[axes")
+        text, axes = f'base = "{base}"\n{head}', "[axes" + axes
+    else:
+        text = f'base = "{base}"\n'
+    path = _spec(tmp_path, text + axes + "\n", "overflow.toml")
+    assert main(["sweep", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and needle in err and "Traceback" not in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_rate_direction_of_any_length_is_a_direction():
+    """[1e-320, 0, 0] (whose norm underflows) and [1e308, 1e308, 0] (whose norm overflows) are directions: the cell's
+    rate keeps the base's magnitude along them."""
+    base = resolve_scenario("gyroscope-nonsingular")
+    for d, unit in (([1e-320, 0, 0], [1, 0, 0]), ([1e308, 1e308, 0], [2 ** -0.5, 2 ** -0.5, 0])):
+        sc = S.apply_cell(base, {"rate_direction": d})
+        np.testing.assert_allclose(sc.omega0, np.linalg.norm(base.omega0) * np.array(unit), rtol=1e-15)

@@ -179,7 +179,7 @@ def sweep_figures(spec: SweepSpec, rows: list, methods) -> list[tuple[str, str, 
 
 
 def _log_if_wide(ax, values, axis="x"):
-    v = np.asarray([x for x in values if x is not None and x > 0], dtype=float)
+    v = np.asarray([x for x in values if x is not None and x > 0 and math.isfinite(x)], dtype=float)
     if len(v) and v.min() > 0 and v.max() / v.min() > 20:
         (ax.set_xscale if axis == "x" else ax.set_yscale)("log")
 

@@ -233,8 +233,10 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
         checks = [Check("reference", False, note=f"the {scenario.reference} reference could not be computed: "
                                                  f"{reference_error}")]
     else:
-        checks = study_checks(scenario, methods, scenario.checks, quick)
+        checks = None
     comparisons = resolve_comparisons(scenario, [c for res in results for c in res.comparisons])
+    if checks is None:
+        checks = study_checks(scenario, methods, scenario.checks, quick, comparisons)
     reference_check = next((res.reference_check for res in results if res.reference_check), None)
     used = reference_check["used"] if reference_check else scenario.reference
     reasons = [] if reference_error else qualify(scenario, methods, checks, reference=used,

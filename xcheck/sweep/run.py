@@ -249,15 +249,19 @@ def run_chunk(chunk: list[tuple], methods: list[str], steps: tuple) -> list[dict
             _run_batched(method, live, steps)
         else:
             for c in live:
-                _run_single(method, c, steps)
+                _run_single(method, c, steps, methods)
     return [_record(c, methods, steps) for c in cells]
 
 
-def _run_single(method: str, c: _Cell, steps: tuple) -> None:
+def _run_single(method: str, c: _Cell, steps: tuple, methods=()) -> None:
+    """One method's runs of a cell, an engine's compared with its partner of ours at each step (what its agreement
+    check reads where the steps leave both above the limit: :func:`xcheck.study.checks._agreement`)."""
+    from ..study import comparison_partner
     from ..study.measure import measure_method
 
     t0 = time.perf_counter()
-    res = measure_method(c.scenario, method, steps, None, sample=False, tolerances=c.scenario.quick_tolerances)
+    res = measure_method(c.scenario, method, steps, comparison_partner(c.scenario, method, methods), sample=False,
+                         tolerances=c.scenario.quick_tolerances)
     c.timings["compute"] += time.perf_counter() - t0
     c.results.append(res)
 

@@ -119,6 +119,7 @@ def _wheel_speed_scale(sc, value, body):
 
 def _rate_direction(sc, value, body):
     d = np.asarray(value, dtype=float)
+    d = d / np.max(np.abs(d))  # first to the order of 1: a norm of 1e-320 or 1e308 squared under- or overflows
     sc.omega0 = np.linalg.norm(sc.omega0) * d / np.linalg.norm(d)
 
 
@@ -353,7 +354,39 @@ def _read(path: Path, top: _Reader, data: dict, max_cells: int | None = None) ->
             if a.distribution is not None:
                 _check_axis_against_base(path, a, base, seed, probes=[min(d), max(d)])
         spec.cells = [_cell({a.name: d[i] for a, d in zip(axes, draws)}) for i in range(samples)]
+    _check_states(spec)
     return spec
+
+
+#: The axes that set a cell's initial state (its attitude, body rate, wheel speeds).
+STATE_AXES = ("attitude", "rate", "rate_deg", "rate_scale", "rate_direction", "wheel_speed_scale")
+
+
+def _check_states(spec: SweepSpec) -> None:
+    """Refuse, before any cell runs, a cell whose initial state no body can have: a rate past
+    :data:`xcheck.body.MAX_RATE` (a scale of 1e308 overflows to inf), wheels spun past it. Each distinct combination of
+    the state axes' values is checked once (a product's other axes repeat them)."""
+    from ..trajectory import check_initial_state
+
+    seen = set()
+    for cell in spec.cells:
+        state = {k: v for k, v in cell["params"].items() if k in STATE_AXES}
+        key = json.dumps(state, sort_keys=True)
+        if not state or key in seen:
+            continue
+        seen.add(key)
+        with np.errstate(all="ignore"):
+            sc = apply_cell(spec.base, state)
+        try:
+            check_initial_state(sc.q0, sc.omega0)
+            if "wheel_speed_scale" in state:
+                from ..models import load_body
+
+                load_body(sc.model).wheel_speeds0(sc.wheel_speeds)
+        except ValueError as exc:
+            axes = ", ".join(f"{k} = {v}" for k, v in state.items())
+            raise SweepError(f"{spec.path}: [axes] the cell {axes} starts from no state a body can have: "
+                             f"{exc}") from None
 
 
 def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int, probes=None) -> None:
@@ -433,6 +466,9 @@ SUMMARIES = {
 def axis_summary(name: str, value) -> tuple[str, float]:
     """``(column, value)``: the scalar that stands for a vector axis' value in tables and figures."""
     v = np.asarray(value, dtype=float)
+    big = np.max(np.abs(v))
+    if name in ("attitude", "rate_direction") and big > 0:
+        v = v / big  # a norm of 1e-320 or 1e308 squared under- or overflows
     if name == "attitude":
         return SUMMARIES[name][0], float(np.degrees(2 * np.arccos(min(1.0, abs(v[0]) / np.linalg.norm(v)))))
     if name == "rate_direction":
