@@ -82,6 +82,26 @@ def test_a_broken_file_is_one_failing_item_among_good_ones(pytester):
     assert "xcheck_broken.toml: model: expected a string, got int 3" in text  # the CLI's message
 
 
+def test_broken_mjcf_files_are_one_failing_item_each_among_good_ones(pytester):
+    """Issue 37, 4: three broken xcheck_*.xml files aborted the session ("Interrupted: 3 errors during collection"),
+    so none of the good files ran. Now each is one failing item with the CLI's refusal; the good file's items pass."""
+    _scenario_file(pytester)
+    (pytester.path / "xcheck_notxml.xml").write_text("<mujoco><worldbody><body>")
+    (pytester.path / "xcheck_twojoints.xml").write_text(
+        '<mujoco><worldbody><body><freejoint/><geom size="0.1" contype="0" conaffinity="0"/></body>'
+        '<body pos="1 0 0"><freejoint/><geom size="0.1" contype="0" conaffinity="0"/></body></worldbody></mujoco>')
+    (pytester.path / "xcheck_nanrate.xml").write_text(
+        '<mujoco><option gravity="0 0 0"/><worldbody><body><freejoint/><inertial pos="0 0 0" mass="1" '
+        'diaginertia="1 2 3"/></body></worldbody><keyframe><key qvel="0 0 0 nan 0 1"/></keyframe></mujoco>')
+    result = _run(pytester, "-q")
+    result.assert_outcomes(passed=7, failed=3)
+    text = result.stdout.str()
+    assert "errors during collection" not in text and "Interrupted" not in text, text
+    for name, needle in (("notxml", "MuJoCo could not load it"), ("twojoints", "a multi-body model: 2 moving bodies"),
+                         ("nanrate", "contains non-finite values")):
+        assert f"FAILED xcheck_{name}.xml::scenario" in text and needle in text, (name, text)
+
+
 def test_a_model_mujoco_cannot_load_fails_the_files_items_naming_it(pytester):
     """Collection reads the file without MuJoCo (issue 25); the model is loaded as the study starts, and a model
     MuJoCo refuses fails every item of the file with the CLI's message, naming the file and the model."""

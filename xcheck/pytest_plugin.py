@@ -80,7 +80,7 @@ class ScenarioFile(pytest.File):
     def collect(self):
         import warnings
 
-        from .scenario import ScenarioError, load_scenario
+        from .scenario import load_scenario
         from .study import default_methods, planned_checks
 
         warnings.filterwarnings("ignore", category=UserWarning, module=r"xcheck\.models")
@@ -91,8 +91,12 @@ class ScenarioFile(pytest.File):
                 self.scenario = scenario_from_model(self.path)
             else:
                 self.scenario = load_scenario(self.path, check_model=False)  # MuJoCo loads when the study runs
-        except ScenarioError as exc:
+        except ValueError as exc:  # ScenarioError, an MJCF model's ModelError: the CLI's refusal, as one failing item
             yield BrokenScenario.from_parent(self, name="scenario", message=str(exc))
+            return
+        except Exception as exc:  # noqa: BLE001 - one broken file must not abort the collection of the others
+            yield BrokenScenario.from_parent(self, name="scenario", message=f"{self.path}: xcheck could not read it "
+                                             f"({type(exc).__name__}: {exc}); this is a bug in xcheck, please report it")
             return
         self._study = None
         names = getattr(self.config, "_xcheck_names", {})
