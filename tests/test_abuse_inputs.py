@@ -217,3 +217,41 @@ def test_workers_are_at_most_one_per_cpu(capsys):
         pool.shutdown()
     assert main(["report", "no-such-scenario", "--workers", "1000"]) == 2
     assert f"note: --workers 1000: {os.cpu_count() or 1} worker processes, one per CPU" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("folder", ["emo\U0001F600ji", "new\nline", 'quote"d'])
+def test_init_writes_a_file_that_reads_back_whatever_the_path(tmp_path, monkeypatch, capsys, folder):
+    """Issue 37, 5: a path with an emoji was written as JSON's surrogate escapes (not TOML), exit 0, a file that could
+    not be read back. Truth: the written scenario reads back with the model's own path and the model's numbers."""
+    from xcheck.scenario import load_scenario
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / folder).mkdir()
+    (tmp_path / folder / "m.xml").write_text((MODELS / "tumbler.xml").read_text())
+    assert main(["init", f"{folder}/m.xml", "--out", "s.toml"]) == 0
+    sc = load_scenario(tmp_path / "s.toml")
+    assert sc.model == (tmp_path / folder / "m.xml").resolve()
+    np.testing.assert_allclose(sc.omega0, [0.1, 0.5, 1.0])
+
+
+@pytest.mark.parametrize("old, new, needle", [
+    ('qvel="0 0 0 0.3 -0.2 0.5 50"', 'qvel="0 0 0 nan -0.2 0.5 50"', "keyframe 'spinning': the free joint's qvel"),
+    ('qvel="0 0 0 0.3 -0.2 0.5 50"', 'qvel="0 0 0 inf -0.2 0.5 50"', "keyframe 'spinning': the free joint's qvel"),
+    ('qvel="0 0 0 0.3 -0.2 0.5 50"', 'qvel="0 0 0 0.3 -0.2 0.5 1e300"', "its speed in the first keyframe"),
+])
+def test_init_refuses_a_keyframe_no_body_can_start_from(tmp_path, capsys, old, new, needle):
+    """Issue 37, 5: init wrote NaN, inf and 1e300 rates into a file that could not be read back (exit 0), and the
+    report named `[initial] angular_velocity` for the MJCF keyframe's NaN. Now the MJCF's keyframe is named; nothing
+    is written."""
+    path = _variant(tmp_path, "gyrostat.xml", old, new)
+    assert main(["init", str(path), "--out", str(tmp_path / "s.toml")]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and "m.xml" in err and "[initial]" not in err, err
+    assert not (tmp_path / "s.toml").exists()
+
+
+def test_init_refuses_a_pulse_mujoco_would_zero(tmp_path, capsys):
+    path = _variant(tmp_path, "tumbler_wheels.xml", 'data="0.2 0 1"', 'data="1e300 0 1"')
+    assert main(["init", str(path), "--out", str(tmp_path / "s.toml")]) == 2
+    assert "actuator 'spin_x': its pulse of 1e+300 N m" in capsys.readouterr().err
+    assert not (tmp_path / "s.toml").exists()

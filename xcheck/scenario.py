@@ -7,7 +7,6 @@ The format is documented in the README ("Scenario files").
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
@@ -675,6 +674,23 @@ def is_model_arg(text) -> bool:
     return split_model_arg(str(text))[0].suffix.lower() == ".xml"
 
 
+_TOML_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def toml_string(text: str) -> str:
+    """``text`` as a TOML basic string: quotes, backslashes and control characters escaped, anything else as it
+    is (UTF-8). (JSON's escapes are not TOML's: an emoji became two surrogate escapes TOML refuses.) A lone surrogate
+    (a file name that is not UTF-8) is a ScenarioError: a TOML file cannot hold it."""
+    out = []
+    for ch in str(text):
+        code = ord(ch)
+        if 0xD800 <= code <= 0xDFFF:
+            raise ScenarioError(f"{text!r} is not valid Unicode (a file name that is not UTF-8): a TOML file cannot "
+                                "hold it")
+        out.append(_TOML_ESCAPES.get(ch) or (f"\\u{code:04X}" if code < 0x20 or code == 0x7F else ch))
+    return '"' + "".join(out) + '"'
+
+
 def _toml_list(values) -> str:
     return "[" + ", ".join(repr(float(v)) for v in values) + "]"
 
@@ -771,16 +787,16 @@ def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | 
         f"# A scenario of {model.name}, as xcheck assumes it when given the model alone (xcheck init): every key of a",
         "# scenario file, with its value for this model. Edit what you know better; xcheck report THIS_FILE runs it.",
         *(f"#   - {a}" for a in assumptions),
-        f"name = {json.dumps(name)}",
-        f"description = {json.dumps(f'{model.name}, ' + state.source.split(':')[0] + (', torque free' if own is None else ', with wheels' if body.wheels else ', a top under gravity'))}",
-        f"model = {json.dumps(ref)}   # the MJCF file (relative to this file)",
+        f"name = {toml_string(name)}",
+        f"description = {toml_string(f'{model.name}, ' + state.source.split(':')[0] + (', torque free' if own is None else ', with wheels' if body.wheels else ', a top under gravity'))}",
+        f"model = {toml_string(ref)}   # the MJCF file (relative to this file)",
         f"duration = {duration!r}   # [s], derived: {derived.why['duration']}",
         "",
         "[initial]",
         f"# {state.source}",
         f"quaternion = {_toml_list(state.q0)}   # [w, x, y, z], body -> world",
         f"angular_velocity = {_toml_list(state.omega0)}   # [rad/s], body frame",
-        f"euler_sequence = {json.dumps(sequence)}   # the sequence euler-rk4 integrates",
+        f"euler_sequence = {toml_string(sequence)}   # the sequence euler-rk4 integrates",
         *([f"wheel_speeds = {_toml_list(state.wheel_speeds)}   # [rad/s], each wheel's relative to the body "
            f"({', '.join(w.name for w in body.wheels)})"] if body.wheels else []),
         "",
