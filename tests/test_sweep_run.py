@@ -13,6 +13,7 @@ import pytest
 
 from xcheck.cli import main
 from xcheck.models import load_body
+from xcheck.paths import BUNDLED_MODELS
 from xcheck.scenario import resolve_scenario
 from xcheck.study import run_study
 from xcheck.sweep import run as R
@@ -495,3 +496,22 @@ def test_a_rate_direction_of_any_length_is_a_direction():
     for d, unit in (([1e-320, 0, 0], [1, 0, 0]), ([1e308, 1e308, 0], [2 ** -0.5, 2 ** -0.5, 0])):
         sc = S.apply_cell(base, {"rate_direction": d})
         np.testing.assert_allclose(sc.omega0, np.linalg.norm(base.omega0) * np.array(unit), rtol=1e-15)
+
+
+@pytest.mark.parametrize("base, axes, needle", [
+    ("rax1-momentum-bias", f'[axes.model]\nvalues = ["{BUNDLED_MODELS / "rax1.xml"}"]',
+     "[initial] wheel_speeds: the model"),
+    ("gyrostat-axisymmetric", f'[axes.model]\nvalues = ["{BUNDLED_MODELS / "tumbler_wheels.xml"}"]',
+     "expected 3 finite speeds"),
+    ("heavy-top", "[axes.inertia]\nvalues = [[0.003, 0.004, 0.005]]", "built from 2 parts"),
+    ("heavy-top", "[axes.inertia_scale]\nvalues = [1.0, 2.0]", "built from 2 parts"),
+])
+def test_cells_that_cannot_run_are_refused_when_the_spec_is_read(tmp_path, capsys, base, axes, needle):
+    """Issue 37, 6: a model axis that drops a gyrostat's wheels, or gives it other wheels, failed per cell at run
+    time; an inertia axis on a body built from parts changed MuJoCo's first part only (0.46 rad "disagreement" on an
+    asymmetric heavy top whose axle kept its own inertia)."""
+    path = _spec(tmp_path, f'base = "{base}"\n{axes}\n', "cannot.toml")
+    assert main(["sweep", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and needle in err, err
+    assert not (tmp_path / "out").exists()

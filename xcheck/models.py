@@ -93,6 +93,8 @@ class MJCFBody(RigidBody):
     #: a gyrostat's wheels (:class:`Wheel`); its ``inertia`` is then the whole body's about the common centre of mass
     #: less each wheel's axial moment about its axis (what :class:`~xcheck.fields.WheelsTorque` goes with)
     wheels: tuple = ()
+    #: how many MJCF bodies are welded into this one (a body built from parts: more than 1)
+    parts: int = 1
 
     def inertia_with(self, moments) -> np.ndarray:
         """The body-frame inertia tensor with ``moments`` (about the centre of mass) in place of
@@ -470,7 +472,7 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
                         notes=tuple(notes), body_id=body_id, qpos_adr=int(model.jnt_qposadr[jnt]), dof_adr=dof,
                         model_moments=tuple(moments.tolist()), model_iquat=tuple(np.asarray(iquat).tolist()),
                         joint=joint, centre=tuple(centre.tolist()), gravity=tuple(gravity.tolist()),
-                        reference_quat=tuple(reference.tolist()), wheels=tuple(wheels))
+                        reference_quat=tuple(reference.tolist()), wheels=tuple(wheels), parts=len(parts))
     except ValueError as exc:
         raise ModelError(f"{where}: body '{body_name}': {exc}") from None
     return model, body

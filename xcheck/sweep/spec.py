@@ -404,10 +404,15 @@ def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int, 
     if axis.name in ("inertia", "inertia_scale", "wheel_speed_scale"):
         from ..models import load_body
 
-        wheels = load_body(base.model).wheels
+        base_body = load_body(base.model)
+        wheels = base_body.wheels
         if wheels and axis.name != "wheel_speed_scale":
             refuse(f"the base's model {base.model} has wheels: its inertia is not swept (MuJoCo's bus alone would "
                    "change, not the whole body's); swap the model instead (a model axis)")
+        if base_body.parts > 1 and axis.name != "wheel_speed_scale":
+            refuse(f"the base's model {base.model} is built from {base_body.parts} parts: its inertia is not swept "
+                   "(MuJoCo's first part alone would change, not the whole body's: a heavy top's axle kept its own); "
+                   "swap the model instead (a model axis)")
         if not wheels and axis.name == "wheel_speed_scale":
             refuse(f"the base's model {base.model} has no wheels")
     if axis.name == "dt":
@@ -439,15 +444,17 @@ def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int, 
             if missing:
                 refuse(f"the field model {value!r} needs {', '.join(missing)}, which the base's [torque] does not "
                        "give")
-        if axis.name == "model" or axis.name == "field" or axis.name.startswith("field.") or "dipole" in axis.name:
-            from ..scenario import build_torque
+        if axis.name in ("model", "field", "inertia", "inertia_scale") or axis.name.startswith("field.") or \
+                "dipole" in axis.name:
+            from ..scenario import check_scenario_model
 
             sc = apply_cell(base, {axis.name: value})
-            try:
-                body = load_body(sc.model)
-                build_torque(sc, body)
+            try:  # the model loads, its wheels take the base's speeds, the torque builds, the reference can be had
+                check_scenario_model(sc)
             except ModelError as exc:  # names the file already
                 refuse(str(exc))
+            except ScenarioError as exc:
+                refuse(f"{value!r}: {str(exc).removeprefix(f'{sc.path}: ')}")
             except ValueError as exc:
                 refuse(f"{value!r}: {exc}")
 
