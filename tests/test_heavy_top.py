@@ -14,7 +14,7 @@ from xcheck.models import ModelError, load_body
 from xcheck.paths import BUNDLED_MODELS
 from xcheck.runners import RUNNERS
 from xcheck.scenario import ScenarioError, resolve_scenario
-from xcheck.study.context import run_context, scenario_reference
+from xcheck.study.context import run_context
 
 TOP = BUNDLED_MODELS / "heavy_top.xml"
 # the notes a model's loading gives (parts welded, a top's pivot): said once per file, and tested in test_models

@@ -130,11 +130,30 @@ def test_xcheck_league_writes_the_table_and_its_figure(tmp_path, monkeypatch, ca
     (["--steps", "1e-9"], "--steps: 1e-09 s is finer than 1e-05 s"),
     (["--steps", "0.001", "--quick"], "--steps and --quick: give one"),
     (["--out", "league.txt"], "--out: league.txt must end in .md"),
+    (["--steps", ""], "--steps: expected a comma-separated list (no empty item), got ''"),
+    (["--steps", "1e-3,,2e-3"], "--steps: expected a comma-separated list (no empty item), got '1e-3,,2e-3'"),
+    (["--out", "league.md"], "boxes-league.png"),  # its figure's path is a folder (made below): refused before work
 ])
 def test_xcheck_league_refuses_bad_arguments(tmp_path, monkeypatch, capsys, args, said):
     from xcheck.cli import main
 
     monkeypatch.chdir(tmp_path)
+    (tmp_path / "boxes-league.png").mkdir()
+    monkeypatch.setattr("xcheck.pool.worker_pool", lambda *a, **k: pytest.fail("work started before the refusal"))
     code = main(["league", *args])
     err = capsys.readouterr().err
     assert code == 2 and said in err and "Traceback" not in err, err
+
+
+def test_files_written_together_take_ctrl_c_after_the_last():
+    """A Ctrl-C while the league writes its JSON, table and figure arrives after all three (each alone atomic; a
+    JSON without its table once said no report was written): the interrupt is held, then delivered. In a process
+    of its own, whose main thread takes the signal as the command's does (pytest-xdist's worker may not)."""
+    import subprocess
+    import sys
+
+    code = ("import os, signal\nfrom xcheck.report.io import signals_deferred\nwritten = []\ntry:\n"
+            "    with signals_deferred():\n        os.kill(os.getpid(), signal.SIGINT)\n"
+            "        written += ['json', 'md']\nexcept KeyboardInterrupt:\n    print('interrupted after', written)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.stdout.strip() == "interrupted after ['json', 'md']", out.stderr

@@ -124,9 +124,9 @@ class Progress:
 
 # ------------------------------------------------------------------------------------------------
 def _csv_list(text, kind, name):
-    items = [x.strip() for x in text.split(",") if x.strip()]
-    if not items:
-        raise UsageError(f"{name}: expected a comma-separated list, got {text!r}")
+    items = [x.strip() for x in text.split(",")]
+    if not text.strip() or not all(items):
+        raise UsageError(f"{name}: expected a comma-separated list (no empty item), got {text!r}")
     if kind is float:
         out = []
         for x in items:
@@ -394,7 +394,7 @@ def _cmd_bench(args) -> int:
         argv += ["--json", args.json]
     if args.quick:
         argv.append("--quick")
-    if args.methods:
+    if args.methods is not None:
         argv += ["--methods", ",".join(_methods_arg(args.methods))]
     argv += ["--repeat", str(args.repeat)]
     return bench_main(argv)
@@ -436,8 +436,9 @@ def _cmd_league(args) -> int:
     from .league.table import checks, markdown, table_rows
     from .report.io import write_json_atomic
 
-    steps = tuple(_csv_list(args.steps, float, "--steps")) if args.steps else (QUICK_STEPS if args.quick else STEPS)
-    if args.steps and args.quick:
+    given = args.steps is not None
+    steps = tuple(_csv_list(args.steps, float, "--steps")) if given else (QUICK_STEPS if args.quick else STEPS)
+    if given and args.quick:
         raise UsageError("--steps and --quick: give one (--quick is --steps 0.001)")
     for dt in steps:
         if dt > 0.01:
@@ -446,6 +447,11 @@ def _cmd_league(args) -> int:
             raise UsageError(f"--steps: {dt:g} s is finer than 1e-05 s (a million steps of the benchmark's 10 s, "
                              "each kept in memory)")
     out = _markdown_and_json(args)
+    if out is not None:
+        from .league.table import FIGURE
+        from .report.io import check_output_file
+
+        check_output_file(out.parent / FIGURE, "--out (its figure, beside it)", suffixes=(".png",))
     workers = args.workers or os.cpu_count() or 1
     from .pool import worker_pool
 
@@ -461,23 +467,27 @@ def _cmd_league(args) -> int:
     failed = [c for c in checks(rows) if not c[1]]
     for what, _, why in failed:
         print(f"FAILED {what}: {why}")
-    if args.json:
-        from .versions import versions
+    from .report.io import signals_deferred, write_bytes_atomic, write_text_atomic
+    from .versions import versions
 
-        write_json_atomic(args.json, {"schema": "xcheck.league/1", "versions": versions(), "steps": list(steps),
-                                      "rows": rows})
-    if out is not None:
+    v = versions()
+    if out is not None:  # everything made first, then written together: all of it or none
         from .league.table import draw
-        from .report.io import write_bytes_atomic, write_text_atomic
-        from .versions import versions
 
-        v = versions()
         file, _, png = draw(rows, steps)
-        write_bytes_atomic(out.parent / file, png)
         command = "xcheck league" + (" --quick" if args.quick else "") + (f" --steps {args.steps}" if args.steps else "")
         text = markdown(rows, steps, version=v["xcheck"], versions={k: v[k] for k in ("mujoco", "numpy", "scipy")},
                         command=f"{command} --out {out.name}")
-        write_text_atomic(out, text + f"\n![{file}]({file})\n")
+    with signals_deferred():
+        if args.json:
+            write_json_atomic(args.json, {"schema": "xcheck.league/1", "versions": v, "steps": list(steps),
+                                          "rows": rows})
+            _WRITTEN.append(args.json)
+        if out is not None:
+            write_bytes_atomic(out.parent / file, png)
+            write_text_atomic(out, text + f"\n![{file}]({file})\n")
+            _WRITTEN.append(out)
+    if out is not None:
         print(f"league table: {out} (figure {out.parent / file})")
     return EXIT_CHECK_FAILED if failed else EXIT_OK
 
@@ -573,7 +583,7 @@ def _cmd_mjx(args) -> int:
     for name in args.scenarios:
         resolve_scenario(name)  # a bad name or file: said before any work
     methods = None
-    if args.methods:
+    if args.methods is not None:
         from .league.precision import mjx_methods
 
         methods = _csv_list(args.methods, str, "--methods")

@@ -7,6 +7,7 @@ import errno
 import json
 import os
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 
@@ -57,6 +58,25 @@ def check_output_dir(path, what: str) -> Path:
         raise OutputPathError(f"{what}: {p} is a file; expected a folder")
     _usable_folder(p, what)
     return p
+
+
+@contextmanager
+def signals_deferred():
+    """Ctrl-C and SIGTERM held back for the length of a block (delivered as it ends): files written in it land all
+    or none of them, where each alone is atomic (a league's JSON without its Markdown once said "no report was
+    written"). Only in the main thread; elsewhere a plain block."""
+    import signal
+    import threading
+
+    held = {signal.SIGINT, signal.SIGTERM}
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
 def write_bytes_atomic(path, data: bytes) -> None:
