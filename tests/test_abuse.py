@@ -21,7 +21,7 @@ import xcheck
 from xcheck import _jit
 from xcheck.cli import main
 from xcheck.engines.mujoco import simulate
-from xcheck.fields import ConstantTorque
+from xcheck.fields import ConstantTorque, WheelsTorque
 from xcheck.paths import BUNDLED_MODELS
 from xcheck.reference import ReferenceFailure, dop853_solution, exact_torque_free
 from xcheck.report import render
@@ -118,6 +118,18 @@ def test_dop853_refuses_at_once_when_over_budget():
     with pytest.raises(ReferenceFailure, match=r"would need about 2.7e\+06 steps .* budget: 100000 steps"):
         dop853_solution(GYRO_I, [1, 0, 0, 0], HUGE_W, 10.0)
     assert time.perf_counter() - t0 < 5  # refused from the estimate, not after minutes of stepping
+
+
+@pytest.mark.parametrize("torque, said", [
+    (WheelsTorque([3e4, 0.0, 0.0]), r"would need about 8.4e\+05 steps at its pace so far \(2000 steps to t = 0.02"),
+    (ConstantTorque([0.0, 0.0, 3e3]), r"would need about 1.5e\+05 steps at its pace so far \(2\d{4} steps to t = 2\.\d"),
+])
+def test_dop853_gives_up_early_where_its_pace_shows_the_budget_cannot_last(torque, said):
+    """Issue 37: |omega0| = 0.37 rad/s sees neither a gyrostat's wheels (3e4 kg m^2/s: a nutation of about 1e4
+    rad/s) nor a torque spinning the body up to 1e3 rad/s; DOP853 stepped 68 s and 22 s before its budget failed.
+    Its pace tells: the wheels after 2 % of the budget, the spin-up (whose pace keeps growing) before a quarter."""
+    with pytest.raises(ReferenceFailure, match=said):
+        dop853_solution(np.diag([1.0, 2.0, 3.0]), [1, 0, 0, 0], [0.1, 0.2, 0.3], 10.0, torque=torque)
 
 
 def test_dop853_gives_up_after_its_step_budget():

@@ -508,6 +508,12 @@ SOLVER_MAX_SECONDS = 60.0
 #: DOP853 at rtol 1e-13 takes 3.6-5.8 steps per radian turned on the bundled scenarios: a run whose
 #: ``|omega0| T`` predicts more steps than the budget is refused before it starts.
 _DOP853_STEPS_PER_RAD = 3.0
+#: Where ``|omega0|`` cannot see it (wheels' momentum, a torque that spins the body up), a solver's pace tells: from
+#: this share of its step budget on, a run whose steps so far plus its recent pace (over its last fifth of steps) kept
+#: to the end come to more than :data:`_PROJECTED_OVER` budgets gives up at once (a gyrostat's wheels once had DOP853
+#: step 68 s before failing; a spin-up's pace grows, so it is caught later, never sooner than it should be).
+_PROJECT_AFTER = 0.02
+_PROJECTED_OVER = 1.5
 
 
 def solve_bounded(method, fun, y0, duration: float, *, rtol: float, atol: float, what: str,
@@ -517,7 +523,9 @@ def solve_bounded(method, fun, y0, duration: float, *, rtol: float, atol: float,
     fails, the state becomes non-finite, or the run takes more than ``max_steps`` steps or ``max_seconds``
     (default :data:`SOLVER_MAX_STEPS`, :data:`SOLVER_MAX_SECONDS`). ``breakpoints``: times in (0, duration)
     where ``fun`` is not smooth (a table's rows): the solver restarts at each, so that no step straddles one
-    (an error estimate across a kink is no estimate; DOP853 rejected step after step there)."""
+    (an error estimate across a kink is no estimate; DOP853 rejected step after step there). A run whose pace
+    projects far past the budget (:data:`_PROJECTED_OVER` budgets, judged after :data:`_PROJECT_AFTER` of it) gives
+    up then, saying how many steps it would need."""
     import time
 
     from scipy.integrate import OdeSolution
@@ -539,9 +547,18 @@ def solve_bounded(method, fun, y0, duration: float, *, rtol: float, atol: float,
             ts.append(solver.t)
             pieces.append(solver.dense_output())
             elapsed = time.perf_counter() - start
-            if solver.t < duration and (len(pieces) >= max_steps or elapsed > max_seconds):
+            n = len(pieces)
+            if n >= max(_PROJECT_AFTER * max_steps, 100) and solver.t < duration:
+                k = n // 5
+                need = n + k * (duration - solver.t) / max(solver.t - ts[-k - 1], 1e-300)
+                if need > _PROJECTED_OVER * max_steps:
+                    raise ReferenceFailure(
+                        f"{what} would need about {need:.2g} steps at its pace so far ({n} steps to "
+                        f"t = {solver.t:.6g} of {duration:g} s; its budget: {max_steps} steps): the motion is too "
+                        f"fast to resolve at rtol {rtol:g} over this duration; shorten the duration or lower the rates")
+            if solver.t < duration and (n >= max_steps or elapsed > max_seconds):
                 raise ReferenceFailure(
-                    f"{what} gave up at t = {solver.t:.6g} of {duration:g} s after {len(pieces)} steps and "
+                    f"{what} gave up at t = {solver.t:.6g} of {duration:g} s after {n} steps and "
                     f"{elapsed:.0f} s (its budget: {max_steps} steps or {max_seconds:g} s): the motion is too fast "
                     f"to resolve at rtol {rtol:g} over this duration; shorten the duration or lower the rates")
         y, t0 = solver.y, t1
