@@ -242,6 +242,27 @@ def test_keep_deletes_only_older_report_folders(tmp_path):
     assert {second.name, old[4].name, old[0].name, "latest", "history.sqlite"} | {p.name for p in not_reports} == left
 
 
+def test_two_nightlies_pruning_at_once_name_only_what_each_removed(tmp_path, monkeypatch):
+    """Issue 37, 7: concurrent `nightly --keep 1` runs each printed folders the other had deleted. Here the other
+    nightly takes the oldest folder away between this one's listing and its own removal: this one skips it and
+    returns only the folder it removed; nothing of either is left behind."""
+    from pathlib import Path
+
+    root = tmp_path
+    old = [_fake_report(root, f"2026110{d}T020000Z") for d in range(1, 4)]
+    rename = Path.rename
+
+    def other_nightly_first(self, target):
+        if self.name == old[0].name:
+            shutil.rmtree(self)  # the other nightly's removal, just before this one's
+        return rename(self, target)
+
+    monkeypatch.setattr(Path, "rename", other_nightly_first)
+    removed = nightly.keep_newest(root, 1)
+    assert [p.name for p in removed] == [old[1].name]
+    assert sorted(p.name for p in root.iterdir()) == [old[2].name]
+
+
 def test_keep_on_the_command_line(tmp_path):
     out = tmp_path / "reports"
     for _ in range(3):

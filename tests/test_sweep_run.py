@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import sqlite3
 from pathlib import Path
 
@@ -515,3 +516,23 @@ def test_cells_that_cannot_run_are_refused_when_the_spec_is_read(tmp_path, capsy
     err = capsys.readouterr().err
     assert str(path) in err and needle in err, err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_second_sweep_into_a_live_ones_folder_is_refused_before_any_work(tmp_path, capsys, monkeypatch):
+    """Issue 37, 7: two sweeps into one --out lost cells (the second deleted the first's live log as an interrupted
+    run's). The first's hold (here taken by hand, as a live run holds it) refuses the second, naming the holder; the
+    first's log is untouched; once it ends the folder is free."""
+    from xcheck.report.io import held_alone
+
+    root = tmp_path / "out" / "small"
+    root.mkdir(parents=True)
+    (root / R.PARTIAL_LOG).write_text("the first run's cells\n")
+    monkeypatch.setattr(R, "executor", lambda *a, **k: pytest.fail("work started before the refusal"))
+    path = _spec(tmp_path)
+    with held_alone(root, "--out"):
+        assert main(["sweep", str(path), "--out", str(tmp_path / "out"), "--jobs", "1"]) == 2
+    err = capsys.readouterr().err
+    assert f"--out: {root} is in use by xcheck process {os.getpid()}" in err, err
+    assert (root / R.PARTIAL_LOG).read_text() == "the first run's cells\n"
+    monkeypatch.undo()
+    assert main(["sweep", str(path), "--out", str(tmp_path / "out"), "--jobs", "1"]) == 0

@@ -151,7 +151,8 @@ def keep_newest(out_root, keep: int, *, protect=()) -> list[Path]:
 
     A report folder is a direct subfolder named like a report stamp (``20261123T020000Z``, or ``-2`` ... for a
     second one in the same second) holding a ``results.json``; nothing else is touched. Never deleted: the
-    folder ``latest`` points to, and those in ``protect`` (this run's)."""
+    folder ``latest`` points to, and those in ``protect`` (this run's). Two nightlies pruning at once each delete,
+    and return, only what they took away themselves."""
     import re
 
     out_root = Path(out_root)
@@ -169,7 +170,12 @@ def keep_newest(out_root, keep: int, *, protect=()) -> list[Path]:
     for p in reports[keep:]:
         if p.resolve() in keep_too:
             continue
-        shutil.rmtree(p)
+        gone = p.with_name(f".{p.name}.removing-{os.getpid()}")
+        try:  # taken away first, in one step: a nightly running beside this one deletes (and names) it or not
+            p.rename(gone)
+        except FileNotFoundError:
+            continue
+        shutil.rmtree(gone, ignore_errors=True)
         removed.append(p)
     return removed
 

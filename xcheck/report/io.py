@@ -79,6 +79,48 @@ def signals_deferred():
         signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
+class BusyError(OutputPathError):
+    """Another live xcheck process holds the folder this run would write into."""
+
+
+@contextmanager
+def held_alone(folder, what: str):
+    """Hold ``folder`` for this process for the length of a block, or raise :class:`BusyError` naming ``what`` and
+    the process holding it: two sweeps into one ``--out`` once had the second delete the first's live log of cells
+    as an interrupted run's. The hold is the kernel's (``flock`` on ``folder/.xcheck.lock``), so a process killed
+    outright holds nothing; the lock file stays behind, empty of meaning. Where ``flock`` is missing or the folder
+    cannot be written (its writer names that), a plain block."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    path = Path(folder) / ".xcheck.lock"
+    try:
+        f = open(path, "a+")
+    except OSError:  # a folder that cannot be written: what writes in it next names it, as it would without this
+        yield
+        return
+    with f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            f.seek(0)
+            holder = f.read().strip() or "another process"
+            raise BusyError(f"{what}: {folder} is in use by {holder} (another xcheck run writing there); wait for it "
+                            "to end or give another folder") from None
+        f.seek(0)
+        f.truncate()
+        f.write(f"xcheck process {os.getpid()}")
+        f.flush()
+        try:
+            yield
+        finally:
+            f.seek(0)
+            f.truncate()
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
 def write_bytes_atomic(path, data: bytes) -> None:
     """Write ``data`` to a temporary file beside ``path``, then rename it into place. An OSError names ``path``
     (the file the user knows of), not the temporary file."""

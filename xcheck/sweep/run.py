@@ -534,12 +534,22 @@ def run_sweep(spec: SweepSpec, out_root, *, jobs: int = 1, resume: bool = False,
     """Run every cell of ``spec`` not yet finished and write the sweep's folder under ``out_root/<spec stem>/``
     (:func:`xcheck.report.sweep.write_sweep`). ``resume``: keep the cells of an interrupted run (its log), or
     of the latest complete one (``latest/cells.jsonl``: a spec given more values runs only the new cells).
-    ``progress(done, total, label)`` as chunks finish; ``say(text)`` for notes."""
-    from ..report.sweep import write_sweep
+    ``progress(done, total, label)`` as chunks finish; ``say(text)`` for notes. Another run writing into the same
+    folder: :class:`xcheck.report.io.BusyError`, before any work."""
+    from ..report.io import held_alone
 
     t_start = time.perf_counter()
     root = Path(out_root) / spec.path.stem
     root.mkdir(parents=True, exist_ok=True)
+    with held_alone(root, "--out"):  # one run at a time into a sweep's folder: its live log is no interrupted run's
+        return _run_held(spec, root, t_start, jobs=jobs, resume=resume, kind=kind, scheduler=scheduler,
+                         progress=progress, say=say)
+
+
+def _run_held(spec, root, t_start, *, jobs, resume, kind, scheduler, progress, say) -> SweepOutcome:
+    """:func:`run_sweep`'s work, its folder held."""
+    from ..report.sweep import write_sweep
+
     log = SweepLog(root / PARTIAL_LOG, fingerprint(spec))
     if resume:
         source = next((p for p in (log.path, root / "latest" / "cells.jsonl") if p.is_file()), None)
