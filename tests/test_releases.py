@@ -3,6 +3,7 @@ releases. Truth: MuJoCo's changelog and our measurement, recorded in docs/mujoco
 order before 4.0.0 and fourth order from it (``RK4_FOURTH_ORDER_FROM``); the installed release is at least that."""
 
 import math
+import os
 import subprocess
 import sys
 
@@ -128,3 +129,51 @@ def test_xcheck_releases_refuses_bad_arguments(tmp_path, monkeypatch, capsys):
         code = main(["releases", *args])
         err = capsys.readouterr().err
         assert code == 2 and said in err and "Traceback" not in err, err
+
+
+def test_a_release_the_index_does_not_hold_is_refused_before_any_work(package_index, tmp_path, monkeypatch, capsys):
+    """Issue 37, 8: `--mujoco 99.0.0` made nothing and exited 0. Truth: the package index (pip index versions)."""
+    from xcheck.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("xcheck.history.matrix.ensure_env", lambda *a, **k: pytest.fail("work before the refusal"))
+    for command in (["releases", "--mujoco", f"{OLD},99.0.0"], ["nightly", "--mujoco", "99.0.0", "--out", "r"]):
+        code = main(command)
+        err = capsys.readouterr().err
+        assert code == 2 and "--mujoco: 99.0.0 is not on the package index (its newest: " in err, err
+    assert not (tmp_path / "r").exists()
+
+
+def test_each_running_environment_has_its_own_release_environments(monkeypatch):
+    """Issue 37, 8: a release's environment reads the packages of the environment that made it (its .pth file); the
+    cache was keyed by Python and MuJoCo alone, so a second virtual environment ran the first's xcheck (or, that one
+    deleted, nothing). Keyed by that environment and its pins now."""
+    from xcheck.history import matrix
+
+    here = matrix.env_dir("3.2.7")
+    monkeypatch.setattr(matrix, "_parent", lambda: "/elsewhere/venv/lib/python3.11/site-packages")
+    there = matrix.env_dir("3.2.7")
+    assert here != there and here.parent == there.parent
+    assert here.name.startswith(f"py{sys.version_info[0]}.{sys.version_info[1]}-mujoco-3.2.7-")
+
+
+def test_release_environments_of_gone_environments_and_half_made_ones_are_deleted(tmp_path):
+    """Issue 37, 8: a maker killed outright left a 47 MB half-made folder for ever; an environment whose running one
+    was deleted was kept. Kept: the live ones and a folder being made by a process that runs (this one)."""
+    from xcheck.history import matrix
+
+    def env(name, parent):
+        site = tmp_path / name / "lib" / "python3.11" / "site-packages"
+        site.mkdir(parents=True)
+        (site / "xcheck_parent_environment.pth").write_text(f"import site; site.addsitedir({str(parent)!r})\n")
+
+    (tmp_path / "venv-alive").mkdir()
+    env("py3.11-mujoco-3.2.7-aaaa", tmp_path / "venv-alive")
+    env("py3.11-mujoco-3.2.7-bbbb", tmp_path / "venv-deleted")
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    (tmp_path / f".py3.11-mujoco-3.6.0-cccc.{int(dead.stdout)}").mkdir()
+    (tmp_path / f".py3.11-mujoco-3.6.0-dddd.{os.getpid()}").mkdir()
+    gone = matrix.prune_envs(tmp_path)
+    assert sorted(p.name for p in gone) == sorted(["py3.11-mujoco-3.2.7-bbbb", f".py3.11-mujoco-3.6.0-cccc.{int(dead.stdout)}"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        [".py3.11-mujoco-3.6.0-dddd." + str(os.getpid()), "py3.11-mujoco-3.2.7-aaaa", "venv-alive"])

@@ -351,13 +351,8 @@ def _cmd_nightly(args) -> int:
     thresholds = nightly.H.Thresholds(error_factor=args.error_factor, order_drop=args.order_drop,
                                       speed_drop=args.speed_drop)
     versions = []
-    if args.mujoco:
-        from .history.matrix import parse_versions
-
-        try:
-            versions = parse_versions(args.mujoco)
-        except ValueError as exc:
-            raise UsageError(str(exc)) from None
+    if args.mujoco is not None:
+        versions = _releases_arg(args.mujoco)
     scenarios = resolve_scenarios(args.scenarios)
     check_output_dir(args.out, "--out")
     if args.history is not None and not args.history.strip():
@@ -492,9 +487,22 @@ def _cmd_league(args) -> int:
     return EXIT_CHECK_FAILED if failed else EXIT_OK
 
 
+def _releases_arg(text: str) -> list[str]:
+    """``--mujoco``'s releases, each on the package index (or a note where the index cannot say), before any work."""
+    from .history.matrix import check_on_index, parse_versions
+
+    try:
+        versions = parse_versions(text)
+        note = check_on_index(versions)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    if note:
+        print(note, file=sys.stderr)
+    return versions
+
+
 def _cmd_releases(args) -> int:
     """Every MuJoCo release on the bundled scenarios and the boxes: docs/mujoco-releases.md, or a bisection."""
-    from .history.matrix import parse_versions
     from .league.releases import (
         PROBE_SCENARIO,
         RELEASES,
@@ -508,10 +516,7 @@ def _cmd_releases(args) -> int:
     )
     from .report.io import write_json_atomic, write_text_atomic
 
-    try:
-        versions = parse_versions(args.mujoco) if args.mujoco else list(RELEASES)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+    versions = _releases_arg(args.mujoco) if args.mujoco is not None else list(RELEASES)
     out = _markdown_and_json(args)
     if args.bisect:
         if out is not None:

@@ -4,7 +4,8 @@ Each release other than the installed one runs in its own virtual environment, m
 tools (``python -m venv``, then ``pip install mujoco==X``) and cached under the user cache
 (``$XCHECK_CACHE_DIR``, else ``~/.cache/xcheck``: ``mujoco-envs/py3.11-mujoco-3.6.0``). The environment
 holds MuJoCo and what it alone needs; everything else (xcheck itself, numpy, scipy, numba, matplotlib) comes
-from the environment xcheck runs in, through a ``.pth`` file, and pip is held to those versions by a
+from the environment xcheck runs in, through a ``.pth`` file (so the cache is kept per running environment: its
+folder's name ends in a digest of that environment's path and pins; one whose environment is gone is deleted), and pip is held to those versions by a
 constraints file: only MuJoCo differs between the columns of the version table, and the numba cache is shared.
 In each environment ``python -m xcheck report`` writes the report into ``<out>/mujoco-<X>/``.
 
@@ -57,15 +58,94 @@ def parse_versions(text: str) -> list[str]:
     return sorted(items, key=release_key)
 
 
+#: Seconds the package index has to say which MuJoCo releases it holds.
+INDEX_SECONDS = 60
+
+
+def check_on_index(versions: list[str]) -> str | None:
+    """Refuse, before any work, releases the package index does not hold (``--mujoco 99.0.0`` once made nothing and
+    exited 0): :class:`MatrixError` naming them and the index's newest. The index is asked through pip (``pip
+    index versions mujoco``); where it cannot answer, a note saying so is returned and each release's install
+    reports for itself."""
+    if all(v == installed_mujoco() for v in versions):
+        return None
+    try:
+        proc = subprocess.run([sys.executable, "-m", "pip", "index", "versions", "mujoco", "--disable-pip-version-check",
+                               "--no-input"], capture_output=True, text=True, timeout=INDEX_SECONDS)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return f"note: the package index was not asked which MuJoCo releases it holds ({exc}); installing each"
+    found = re.search(r"Available versions:\s*(.+)", proc.stdout)
+    if proc.returncode != 0 or not found:
+        return (f"note: the package index did not say which MuJoCo releases it holds ({_reason(proc.stderr)}); "
+                "installing each")
+    held = {v.strip() for v in found.group(1).split(",")}
+    missing = [v for v in versions if v not in held and v != installed_mujoco()]
+    if missing:
+        newest = sorted((v for v in held if _RELEASE.match(v)), key=lambda v: tuple(map(int, v.split("."))))[-3:]
+        raise MatrixError(f"--mujoco: {', '.join(missing)} {'is' if len(missing) == 1 else 'are'} not on the package "
+                          f"index (its newest: {', '.join(reversed(newest))})")
+    return None
+
+
 def installed_mujoco() -> str | None:
     version = package_version("mujoco")
     return None if version == NOT_INSTALLED else version
 
 
+def _parent() -> str:
+    """The running environment's packages folder, which a release's environment reads through its ``.pth`` file."""
+    return sysconfig.get_paths()["purelib"]
+
+
+def _pins() -> list[str]:
+    return [f"{p}=={package_version(p)}" for p in PINNED if package_version(p) != NOT_INSTALLED]
+
+
 def env_dir(version: str) -> Path:
+    """The cached environment of MuJoCo ``version`` for the running environment: two virtual environments (or one
+    whose numpy changed) never share one, since each release's environment reads the packages of the one that made
+    it (a cache keyed by Python and MuJoCo alone once ran a deleted environment's xcheck, or nothing)."""
+    import hashlib
+
     from .._jit import user_cache_home
 
-    return user_cache_home() / "mujoco-envs" / f"py{sys.version_info[0]}.{sys.version_info[1]}-mujoco-{version}"
+    digest = hashlib.sha256("\n".join([_parent(), *_pins()]).encode()).hexdigest()[:10]
+    return (user_cache_home() / "mujoco-envs"
+            / f"py{sys.version_info[0]}.{sys.version_info[1]}-mujoco-{version}-{digest}")
+
+
+def prune_envs(root: Path | None = None) -> list[Path]:
+    """Delete the cached release environments whose running environment is gone (the ``.pth`` file's folder), and
+    half-made ones (a ``.<name>.<pid>`` folder whose maker no longer runs: killed outright while installing);
+    returns what was deleted."""
+    from .._jit import user_cache_home
+
+    root = user_cache_home() / "mujoco-envs" if root is None else Path(root)
+    gone = []
+    for p in sorted(root.glob("*")) if root.is_dir() else []:
+        if not p.is_dir() or p.is_symlink():
+            continue
+        half = re.match(r"^\..*\.(\d+)$", p.name)
+        if half:
+            stale = not _alive(int(half.group(1)))
+        else:
+            pth = next(p.glob("lib*/python*/site-packages/xcheck_parent_environment.pth"), None)
+            parent = re.search(r"addsitedir\((['\"])(.*)\1\)", pth.read_text()) if pth else None
+            stale = parent is not None and not Path(parent.group(2)).is_dir()
+        if stale:
+            shutil.rmtree(p, ignore_errors=True)
+            gone.append(p)
+    return gone
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # someone else's process
+        return True
+    return True
 
 
 def _python(env: Path) -> Path:
@@ -81,6 +161,7 @@ def ensure_env(version: str, log=print) -> Path:
     if (env / ".ready").is_file():
         return _python(env)
     env.parent.mkdir(parents=True, exist_ok=True)
+    prune_envs(env.parent)
     with _making(env):  # another process making the same environment: wait for it instead of making a second
         if (env / ".ready").is_file():
             return _python(env)
@@ -113,11 +194,10 @@ def _make_env(env: Path, version: str, log) -> Path:
         py = _python(tmp)
         site = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
                               check=True, capture_output=True, text=True).stdout.strip()
-        parent = sysconfig.get_paths()["purelib"]
+        parent = _parent()
         # the running environment after the new one's own packages (its .pth files too: an editable xcheck)
         Path(site, "xcheck_parent_environment.pth").write_text(f"import site; site.addsitedir({parent!r})\n")
-        pins = [f"{p}=={package_version(p)}" for p in PINNED if package_version(p) != NOT_INSTALLED]
-        (tmp / "constraints.txt").write_text("\n".join(pins) + "\n")
+        (tmp / "constraints.txt").write_text("\n".join(_pins()) + "\n")
         pip = subprocess.run([str(py), "-m", "pip", "install", "--disable-pip-version-check", "--no-input", "-q",
                               "-c", str(tmp / "constraints.txt"), f"mujoco=={version}"],
                              capture_output=True, text=True)
