@@ -817,3 +817,29 @@ def test_check_step_counts_steps():
     from xcheck.trajectory import check_step
 
     assert check_step(0.125, 10.0) == 80 and check_step(0.3, 1.0) == 4 and check_step(1.0, 1.0) == 1
+
+
+@pytest.mark.parametrize("variable, value, said", [
+    ("XCHECK_WITH", "garbage", "$XCHECK_WITH='garbage': 'garbage' is not an opt-in engine (expected some of mjx)"),
+    ("XCHECK_WITHOUT", "bsk", "$XCHECK_WITHOUT='bsk': 'bsk' is not an optional engine (expected some of basilisk"),
+    ("XCHECK_WITHOUT", "mujoco", "$XCHECK_WITHOUT='mujoco': 'mujoco' is not an optional engine"),
+])
+def test_engine_variables_are_read_as_the_options_are(capsys, monkeypatch, variable, value, said):
+    """Issue 37, 9: a typo in $XCHECK_WITH was ignored silently (the engine it meant left out of every study)."""
+    _no_work(monkeypatch)
+    monkeypatch.setenv(variable, value)
+    code, _, err = run_cli(capsys, "run", "gyroscope-nonsingular", "--method", "lie-rkmk4", "--dt", "0.01")
+    assert code == 2 and said in err, err
+
+
+def test_run_names_an_engine_that_is_not_installed_as_converge_does(capsys, monkeypatch):
+    """Issue 37, 9: `run --method mjx-rk4` said "unknown" where `converge --methods mjx-rk4` said how to install it."""
+    from xcheck.engines import installed
+
+    if installed("mjx"):
+        pytest.skip("MJX is installed here: its method is known")
+    _no_work(monkeypatch)
+    code, _, err = run_cli(capsys, "run", "gyroscope-nonsingular", "--method", "mjx-rk4", "--dt", "0.01")
+    code2, _, err2 = run_cli(capsys, "converge", "gyroscope-nonsingular", "--methods", "mjx-rk4")
+    assert code == code2 == 2 and "'mjx-rk4' is MJX's, which is not installed here: pip install 'xcheck[mjx]'" in err
+    assert err.split("'mjx-rk4'")[1] == err2.split("'mjx-rk4'")[1], (err, err2)

@@ -276,7 +276,9 @@ def _cmd_run(args) -> int:
 
     scenario = resolve_scenario(args.scenario)
     if args.method not in RUNNERS:
-        raise UsageError(f"--method: unknown {args.method!r}; expected one of {', '.join(RUNNERS)}")
+        from .runners import unknown_method
+
+        raise UsageError(f"--method: {unknown_method(args.method)}")
     runner = RUNNERS[args.method]
     if args.rtol is not None and not runner.adaptive:
         raise UsageError(f"--rtol: {args.method} is a fixed-step method; a tolerance applies to an adaptive one "
@@ -393,6 +395,25 @@ def _cmd_bench(args) -> int:
         argv += ["--methods", ",".join(_methods_arg(args.methods))]
     argv += ["--repeat", str(args.repeat)]
     return bench_main(argv)
+
+
+def _engine_variables() -> None:
+    """``$XCHECK_WITH`` and ``$XCHECK_WITHOUT`` as ``--with`` is: names of engines (opt-in ones for the first, installed),
+    or a refusal naming the variable (a typo once left MJX out silently)."""
+    from .engines import ENGINES, WITH_VARIABLE, WITHOUT_VARIABLE, available
+
+    for variable in (WITH_VARIABLE, WITHOUT_VARIABLE):
+        text = os.environ.get(variable, "")
+        names = [n.strip() for n in text.split(",") if n.strip()]
+        for name in names:
+            if variable == WITH_VARIABLE and not (name in ENGINES and ENGINES[name].opt_in):
+                raise UsageError(f"${variable}={text!r}: {name!r} is not an opt-in engine (expected some of "
+                                 f"{', '.join(n for n, e in ENGINES.items() if e.opt_in)})")
+            if variable == WITH_VARIABLE and not available(name):
+                raise UsageError(f"${variable}={text!r}: {name} is not installed here: pip install 'xcheck[{name}]'")
+            if variable == WITHOUT_VARIABLE and (name not in ENGINES or name == "mujoco"):
+                raise UsageError(f"${variable}={text!r}: {name!r} is not an optional engine (expected some of "
+                                 f"{', '.join(n for n in ENGINES if n != 'mujoco')})")
 
 
 def _with_engines(args) -> None:
@@ -995,6 +1016,7 @@ def _run(args) -> int:
 
     try:
         try:
+            _engine_variables()
             return args.func(args)
         except BrokenProcessPool:
             # a worker died. A signal to the process group (Ctrl-C, kill -TERM) reaches the workers too, and
