@@ -17,7 +17,7 @@ import sqlite3
 import tracemalloc
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from test_cli_fuzz import to_toml  # noqa: E402  (the same TOML writer)
 
@@ -305,3 +305,182 @@ def test_resume_logs(playground, capsys, interrupted_log, cut, flips, extra):
         with open(tmp / "out" / "small" / "latest" / "results.csv", newline="") as f:
             cells = {r["cell"] for r in csv.DictReader(f)}
         assert len(cells) == 4
+
+
+# ------------------------------------------------------------------------------------------------------
+# issue 37: MJCF in (keyframes, pulses, actuators, flags), `init`, [[torque]] lists, the torques axis
+# ------------------------------------------------------------------------------------------------------
+mjcf_numbers = st.one_of(special, st.floats(-3, 3, allow_nan=False), st.sampled_from([0.004, 0.2, 1.0, 2.0, 9.81]))
+
+
+def _nums(draw, n, good):
+    """``n`` numbers as MJCF writes them: mostly ``good`` (the model's own), sometimes any, sometimes a wrong count."""
+    if draw(st.integers(0, 9)):
+        return " ".join(repr(float(v)) for v in good)
+    values = draw(st.lists(mjcf_numbers, min_size=max(0, n - 1), max_size=n + 1))
+    return " ".join("nan" if math.isnan(v) else repr(float(v)) for v in values)
+
+
+@st.composite
+def wheel_models(draw):
+    """tumbler_wheels.xml with its numbers, keyframe, pulse, motor and flags drawn."""
+    gear = _nums(draw, 1, [1.0])
+    motor = draw(st.sampled_from([
+        f'<motor name="spin_x" joint="wheel_x" gear="{gear}"/>',
+        f'<motor name="spin_x" joint="wheel_x" gear="{gear}" forcerange="-0.1 0.1" forcelimited="true"/>',
+        '<motor name="spin_x" joint="wheel_x"/>', '<motor name="spin_x" joint="wheel_x"/>', "",
+        '<motor name="spin_y" joint="wheel_y"/>']))
+    flags = draw(st.sampled_from(['<flag contact="disable"/>', '<flag contact="disable" actuation="disable"/>',
+                                  '<flag contact="disable" gravity="disable"/>']))
+    pulse = draw(st.sampled_from(["spin_x", "spin_x", "spin_x", "spin_y", "nobody"]))
+    key = ""
+    if draw(st.booleans()):
+        key = (f'<keyframe><key name="k" qpos="{_nums(draw, 9, [0, 0, 0, 1, 0, 0, 0, 0, 0])}" '
+               f'qvel="{_nums(draw, 8, [0, 0, 0, 0.3, 1.0, 0.2, 0, 0])}"/></keyframe>')
+    frc = ' actuatorfrcrange="-0.05 0.05"' if draw(st.integers(0, 4)) == 0 else ""
+    return f'''<mujoco model="fuzz_wheels">
+  <compiler angle="radian" inertiafromgeom="false"/>
+  <option gravity="{_nums(draw, 3, [0, 0, 0])}" timestep="0.01" integrator="RK4">{flags}</option>
+  <custom><numeric name="xcheck_pulse:{pulse}" data="{_nums(draw, 3, [0.2, 0, 1])}"/></custom>
+  <worldbody>
+    <body name="bus">
+      <freejoint name="free"/>
+      <inertial pos="0 0 0" mass="{_nums(draw, 1, [2.0])}" diaginertia="{_nums(draw, 3, [1, 2, 3])}"/>
+      <body name="wheel_x" pos="0.2 0 0">
+        <joint name="wheel_x" type="hinge" axis="{_nums(draw, 3, [1, 0, 0])}"{frc}/>
+        <inertial pos="0 0 0" mass="0.3" diaginertia="0.004 0.0025 0.0025"/>
+      </body>
+      <body name="wheel_y" pos="0 0.2 0">
+        <joint name="wheel_y" type="hinge" axis="0 1 0"/>
+        <inertial pos="0 0 0" mass="0.3" diaginertia="0.0025 0.004 0.0025"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>{motor}</actuator>{key}
+</mujoco>
+'''
+
+
+@st.composite
+def top_models(draw):
+    """heavy_top.xml with its gravity, pivot, masses, keyframe and gravcomp drawn."""
+    gravcomp = ' gravcomp="1"' if draw(st.integers(0, 4)) == 0 else ""
+    key = ""
+    if draw(st.booleans()):
+        key = (f'<keyframe><key name="k" qpos="{_nums(draw, 4, [0.9962, 0.0872, 0, 0])}" '
+               f'qvel="{_nums(draw, 3, [0, 0, 50.0])}"/></keyframe>')
+    return f'''<mujoco model="fuzz_top">
+  <compiler angle="radian" inertiafromgeom="false"/>
+  <option gravity="{_nums(draw, 3, [0, 0, -9.81])}" timestep="0.004" integrator="RK4"><flag contact="disable"/></option>
+  <worldbody>
+    <body name="top" pos="0 0 0.5"{gravcomp}>
+      <joint name="pivot" type="ball" pos="{_nums(draw, 3, [0, 0, 0])}"/>
+      <inertial pos="{_nums(draw, 3, [0, 0, 0.01])}" mass="{_nums(draw, 1, [2.0])}" diaginertia="0.0028125 0.0028125 0.005625"/>
+    </body>
+  </worldbody>{key}
+</mujoco>
+'''
+
+
+def _model_case(playground, text):
+    tmp = _case(playground)
+    model = tmp / "m.xml"
+    model.write_text(text)
+    return tmp, model
+
+
+def _init_then_run(capsys, tmp, model):
+    """`init` on the model: refused (exit 2, the model untouched), or the scenario it wrote is read back and runs
+    in MuJoCo and in ours at the model's own keyframe, a run ending (exit 0) or failing as a run (1), never refused."""
+    before = model.read_bytes()
+    keyed = f"{model}#k" if b'<key name="k"' in before else str(model)
+    code = _run(capsys, ["init", keyed, "--out", str(tmp / "s.toml")])
+    assert model.read_bytes() == before
+    if code == 2:
+        assert not (tmp / "s.toml").exists()
+        return
+    assert code == 0
+    for method in ("mujoco-rk4", "lie-rkmk4"):
+        args = ["run", str(tmp / "s.toml"), "--method", method, "--dt", "0.05"]
+        assert _run(capsys, args) in (0, 1), args
+
+
+@_settings(12)
+@given(text=wheel_models())
+def test_mjcf_gyrostats_with_keyframes_pulses_and_motors(playground, capsys, text):
+    tmp, model = _model_case(playground, text)
+    _init_then_run(capsys, tmp, model)
+
+
+@_settings(12)
+@given(text=top_models())
+def test_mjcf_heavy_tops_with_keyframes_and_gravity(playground, capsys, text):
+    tmp, model = _model_case(playground, text)
+    _init_then_run(capsys, tmp, model)
+
+
+TORQUE_TERMS = {
+    "magnetic": st.one_of(st.fixed_dictionaries({"field": st.sampled_from(["orbit-dipole", "warp"])},
+                                                optional={"altitude_km": numbers}),
+                          st.fixed_dictionaries({"field": st.just("uniform"),
+                                                 "H_world": st.one_of(st.just([20.0, -5.0, 10.0]), vectors)})),
+    "gravity-gradient": st.fixed_dictionaries({}, optional={"altitude_km": numbers, "inclination_deg": numbers}),
+    "constant": st.fixed_dictionaries({"torque": vectors}),
+    "solar-pressure": st.fixed_dictionaries({"centre_of_pressure": st.one_of(st.just([0.01, 0.0, 0.02]), vectors),
+                                             "area": st.one_of(st.just(0.01), numbers)},
+                                            optional={"reflectivity": numbers}),
+    "aerodynamic": st.fixed_dictionaries({"centre_of_pressure": st.one_of(st.just([0.01, 0.0, 0.02]), vectors),
+                                          "area": st.one_of(st.just(0.01), numbers)},
+                                         optional={"density": numbers, "drag_coefficient": numbers}),
+    "junk": st.dictionaries(st.text(max_size=5), anything, max_size=2),
+}
+
+
+@st.composite
+def torque_lists(draw):
+    terms = []
+    for kind in draw(st.lists(st.sampled_from(sorted(TORQUE_TERMS)), min_size=0, max_size=3)):
+        table = dict(draw(TORQUE_TERMS[kind]))
+        if kind != "junk" or draw(st.booleans()):
+            table["kind"] = kind
+        terms.append(table)
+    return terms
+
+
+@_settings(20)
+@given(terms=torque_lists())
+def test_torque_lists(playground, capsys, terms):
+    """A [[torque]] list of drawn terms on RAX-1: refused naming `[torque[k]]`, or a study that runs."""
+    tmp = _case(playground)
+    text = BASE.split("[torque]")[0] + "".join("[[torque]]\n" + "".join(f"{json.dumps(k)} = {_tv(v)}\n"
+                                                                         for k, v in t.items())
+                                               for t in terms) + BASE[BASE.index("[study]"):]
+    path = tmp / "s.toml"
+    path.write_text(text)
+    code = _run(capsys, ["converge", str(path), "--quick", "--workers", "1"])
+    err = capsys.readouterr().err  # (read by _run: this is what came after, nothing)
+    assert code in (0, 1, 2, 4) and not err
+
+
+@_settings(12)
+@given(sets=st.one_of(st.lists(st.lists(st.sampled_from(["magnetic", "gravity-gradient"]), max_size=2, unique=True),
+                               min_size=1, max_size=3),
+                      st.lists(st.lists(st.sampled_from(["magnetic", "aerodynamic", "warp", ""]), max_size=3),
+                               max_size=3), anything))
+@example(sets=[["magnetic"], ["magnetic", "gravity-gradient"], []])  # the documentation's own
+def test_the_torques_axis(playground, capsys, sets):
+    """Issue 37, 1: the torques axis ran every cell, then crashed summarising them. Any value: refused when the spec
+    is read, or a report with one row per cell."""
+    tmp = _case(playground)
+    base = BASE.split("[torque]")[0] + ('[[torque]]\nkind = "magnetic"\nfield = "orbit-dipole"\n[[torque]]\n'
+                                        'kind = "gravity-gradient"\n') + BASE[BASE.index("[study]"):]
+    (tmp / "base.toml").write_text(base)
+    spec = tmp / "spec.toml"
+    spec.write_text('base = "base.toml"\nmethods = ["lie-rkmk4"]\n[axes.torques]\n' f"values = {_tv(sets)}\n")
+    code = _run(capsys, ["sweep", str(spec), "--out", str(tmp / "out"), "--jobs", "1", "--max-cells", "4"])
+    if code != 2:
+        import csv
+
+        with open(tmp / "out" / "spec" / "latest" / "results.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+        assert rows and all(r["torques"] for r in rows if r["torques"] != "none")
