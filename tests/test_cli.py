@@ -352,7 +352,7 @@ def test_model_refused_by_load_body(tmp_path, capsys):
     (["converge", "gyroscope-nonsingular", "--methods", "rk5"], "--methods: unknown method 'rk5'"),
     (["converge", "gyroscope-nonsingular", "--steps", "0.1,abc"], "--steps: 'abc' is not a number"),
     (["converge", "gyroscope-nonsingular", "--steps", "0.1,-1"], "--steps: '-1' is not a positive finite step"),
-    (["run", "gyroscope-nonsingular", "--method", "rk5", "--dt", "0.1"], "--method: unknown 'rk5'"),
+    (["run", "gyroscope-nonsingular", "--method", "rk5", "--dt", "0.1"], "--method: unknown method 'rk5'"),
     (["run", "gyroscope-nonsingular", "--method", "lie-rkmk4", "--dt", "-0.1"], "--dt: expected a positive"),
     (["report", "--workers", "0"], "--workers: expected a positive number"),
 ])

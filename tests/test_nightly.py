@@ -313,14 +313,15 @@ from conftest import OLD_MUJOCO  # noqa: E402
 
 def test_the_version_matrix_runs_each_release_and_reports_the_uninstallable(tmp_path, package_index):
     """Truth: MuJoCo's changelog and a measurement, the gyroscope's RK4 is order 2 in 3.2.7 (the gyroscopic term
-    of free bodies explicit) and order 4 in the installed release; 0.0.1 was never released."""
+    of free bodies explicit) and order 4 in the installed release; 2.2.0 is on the index with no wheel for any Python
+    xcheck runs on (its source alone: MuJoCo is not built here)."""
     from xcheck.history.matrix import installed_mujoco
 
     installed = installed_mujoco()
     out = tmp_path / "reports"
-    proc = _nightly(_scenario_copy(tmp_path), "--out", out, "--mujoco", f"{installed},{OLD_MUJOCO},0.0.1")
+    proc = _nightly(_scenario_copy(tmp_path), "--out", out, "--mujoco", f"{installed},{OLD_MUJOCO},2.2.0")
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert "MuJoCo 0.0.1: cannot be installed" in proc.stdout
+    assert "MuJoCo 2.2.0: cannot be installed" in proc.stdout
     assert f"MuJoCo {OLD_MUJOCO}: some checks failed" in proc.stdout
     with H.open_history(out / "history.sqlite", read_only=True) as hist:
         runs = {r["environment"]: r for r in hist.runs()}
@@ -331,7 +332,7 @@ def test_the_version_matrix_runs_each_release_and_reports_the_uninstallable(tmp_
     assert orders[f"mujoco=={OLD_MUJOCO}"] == pytest.approx(2.0, abs=0.1)
     assert orders[""] == pytest.approx(4.0, abs=0.1)
     report = (out / "latest" / "report.md").read_text()
-    assert "## MuJoCo versions" in report and "**MuJoCo 0.0.1: **cannot be installed" in report
+    assert "## MuJoCo versions" in report and "**MuJoCo 2.2.0: **cannot be installed" in report
     row = next(line for line in report.splitlines() if line.startswith("| mujoco-rk4 |") and "p=2.0" in line)
     cells = [c.strip() for c in row.strip("|").split("|")]
     assert cells[1].startswith("p=2.00") and cells[2].startswith("✅ p=4.00")  # better than its left neighbour

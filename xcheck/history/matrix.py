@@ -9,8 +9,10 @@ folder's name ends in a digest of that environment's path and pins; one whose en
 constraints file: only MuJoCo differs between the columns of the version table, and the numba cache is shared.
 In each environment ``python -m xcheck report`` writes the report into ``<out>/mujoco-<X>/``.
 
-A release that cannot be installed (not on the package index, no wheel for this Python or platform, a
-dependency that conflicts with the pinned versions) is reported as such, with pip's reason; the others run.
+A release the package index does not hold is refused before any work (:func:`check_on_index`); one that cannot
+be installed (no wheel for this Python or platform — MuJoCo is never built from source here, a build of minutes that
+needs its toolchain —, a dependency that conflicts with the pinned versions) is reported as such, with pip's reason;
+the others run.
 """
 
 from __future__ import annotations
@@ -199,7 +201,7 @@ def _make_env(env: Path, version: str, log) -> Path:
         Path(site, "xcheck_parent_environment.pth").write_text(f"import site; site.addsitedir({parent!r})\n")
         (tmp / "constraints.txt").write_text("\n".join(_pins()) + "\n")
         pip = subprocess.run([str(py), "-m", "pip", "install", "--disable-pip-version-check", "--no-input", "-q",
-                              "-c", str(tmp / "constraints.txt"), f"mujoco=={version}"],
+                              "-c", str(tmp / "constraints.txt"), "--only-binary", "mujoco", f"mujoco=={version}"],
                              capture_output=True, text=True)
         if pip.returncode != 0:
             raise MatrixError(f"cannot be installed: {_reason(pip.stderr)}")
