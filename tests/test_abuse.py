@@ -19,6 +19,7 @@ import pytest
 
 import xcheck
 from xcheck import _jit
+from xcheck.base import files as base_files
 from xcheck.cli import main
 from xcheck.engines.mujoco import simulate
 from xcheck.fields import ConstantTorque, WheelsTorque
@@ -254,7 +255,7 @@ methods = ["mujoco-rk4", "mujoco-euler", "mujoco-implicit", "mujoco-implicitfast
 #: The parent of `xcheck report` with every PNG write slowed by 0.3 s (its workers are untouched): the
 #: writing phase then lasts seconds, whatever the machine.
 SLOW_WRITER = """import sys, time
-import xcheck.report.io as io
+import xcheck.base.files as io
 _write = io.write_bytes_atomic
 def slow_write(*args, **kwargs):
     time.sleep(0.3)
@@ -335,7 +336,7 @@ def test_a_signal_in_the_first_second_is_reported_in_one_line(tmp_path, command,
 
 LOST_INTERRUPT = """
 import os, signal, time
-import xcheck.pool as P
+import xcheck.base.pool as P
 got = []
 signal.signal(signal.SIGINT, lambda s, f: got.append(s))
 submit = P.ProcessPoolExecutor.submit
@@ -362,7 +363,7 @@ def test_a_ctrl_c_while_the_workers_start_is_not_lost(tmp_path):
 
 INTERRUPT_WHILE_FORKING = """
 import multiprocessing, multiprocessing.util as mp_util, os, signal, time
-import xcheck.pool as P
+import xcheck.base.pool as P
 
 def blocked(queue):
     queue.put(signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, []))
@@ -403,7 +404,7 @@ def test_a_ctrl_c_while_a_worker_is_forked_is_not_lost(tmp_path):
 
 WAKEUP_AFTER_CLOSE = """
 import os
-from xcheck.pool import make_pool, stop_pool
+from xcheck.base.pool import make_pool, stop_pool
 if __name__ == "__main__":
     pool = make_pool(1)
     pool.submit(len, [1]).result()
@@ -442,7 +443,7 @@ def test_a_completed_pool_leaves_no_thread_and_no_semaphore_behind(monkeypatch):
     from concurrent.futures import process
     from multiprocessing import resource_tracker
 
-    from xcheck.pool import worker_pool
+    from xcheck.base.pool import worker_pool
 
     ending = process._ExecutorManagerThread.join_executor_internals  # the thread's last work: made slow here
     monkeypatch.setattr(process._ExecutorManagerThread, "join_executor_internals",
@@ -482,20 +483,20 @@ def test_the_repeated_interrupt_spares_one_on_its_way_out(monkeypatch):
     """The half-second repeat of a Ctrl-C (for one a ``__del__`` swallowed) raises where the work goes on, and not
     inside the handling of the first: there it would escape the "interrupted" message and end the process by the
     signal (exit -2 instead of 130; seen once in CI)."""
-    from xcheck import cli
+    from xcheck.base import interrupts
 
-    monkeypatch.setattr(cli, "_SIGNALLED", [signal.SIGINT])
+    monkeypatch.setattr(interrupts, "SIGNALLED", [signal.SIGINT])
     with pytest.raises(KeyboardInterrupt):  # swallowed: the work goes on, so the repeat raises it again
-        cli._on_alarm(signal.SIGALRM, None)
+        interrupts._on_alarm(signal.SIGALRM, None)
     try:
         raise KeyboardInterrupt
     except KeyboardInterrupt:
-        cli._on_alarm(signal.SIGALRM, None)  # on its way out: nothing raised
+        interrupts._on_alarm(signal.SIGALRM, None)  # on its way out: nothing raised
     try:
         try:
             raise KeyboardInterrupt
         finally:  # the clean-up of a command unwinding from the first interrupt
-            cli._on_alarm(signal.SIGALRM, None)
+            interrupts._on_alarm(signal.SIGALRM, None)
     except KeyboardInterrupt:
         pass
 
@@ -561,7 +562,7 @@ def test_killed_parent_leaves_no_orphan_workers(tmp_path):
 
 def test_leftovers_of_killed_runs_are_removed(tmp_path, capsys):
     out = tmp_path / "reports"
-    owner = render._owner()
+    owner = base_files._owner()
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
                           text=True).stdout.strip()
     stale = out / f".incomplete-20260101T000000Z-{owner.rsplit('-', 1)[0]}-{dead}"
@@ -593,7 +594,7 @@ def test_reports_finishing_in_the_same_second_both_land(tmp_path, monkeypatch):
             (Path(dst) / "index.html").write_text("the other report")
         return real_rename(src, dst)
 
-    monkeypatch.setattr(render.os, "rename", racing_rename)
+    monkeypatch.setattr(base_files.os, "rename", racing_rename)
     second = render.write_report([st], out, stamp="20260101T000000Z")
     assert first.name == "20260101T000000Z" and second.name == "20260101T000000Z-3"
     assert (second / "results.json").is_file() and (out / "20260101T000000Z-2" / "index.html").read_text() == \

@@ -208,7 +208,7 @@ def test_the_contact_scan_finds_exactly_the_pairs_that_can_touch():
 def test_workers_are_at_most_one_per_cpu(capsys):
     """--workers 1000 started a thousand interpreters (5.5 GB for 100; a 2 s job took 107 s): the pool is capped at
     the CPU count, and the command says so."""
-    from xcheck.pool import make_pool
+    from xcheck.base.pool import make_pool
 
     pool = make_pool(1000)
     try:

@@ -407,12 +407,13 @@ def test_a_signal_that_a_module_turned_into_its_own_error_is_still_an_interrupt(
     import argparse
 
     from xcheck import cli
+    from xcheck.base import interrupts
 
     def command(args):
-        cli._SIGNALLED.append(signum)
+        interrupts.SIGNALLED.append(signum)
         raise ImportError("initialization failed")
 
-    monkeypatch.setattr(cli, "_SIGNALLED", [])
+    monkeypatch.setattr(interrupts, "SIGNALLED", [])
     assert cli._run(argparse.Namespace(func=command)) == code
     err = capsys.readouterr().err
     assert f"xcheck: {word}; no report was written" in err and "internal error" not in err

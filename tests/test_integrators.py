@@ -424,7 +424,7 @@ def test_a_cold_compile_cache_is_seen_and_warmed(tmp_path):
     import sys
 
     script = ("from xcheck.integrators import compile_cache_is_cold, precompile\n"
-              "from xcheck.pool import _import\n"
+              "from xcheck.base.pool import _import\n"
               "before = compile_cache_is_cold()\n"
               "precompile(['formulation-2'])\n"
               "after = compile_cache_is_cold()\n"

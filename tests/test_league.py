@@ -139,7 +139,7 @@ def test_xcheck_league_refuses_bad_arguments(tmp_path, monkeypatch, capsys, args
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "boxes-league.png").mkdir()
-    monkeypatch.setattr("xcheck.pool.worker_pool", lambda *a, **k: pytest.fail("work started before the refusal"))
+    monkeypatch.setattr("xcheck.base.pool.worker_pool", lambda *a, **k: pytest.fail("work started before the refusal"))
     code = main(["league", *args])
     err = capsys.readouterr().err
     assert code == 2 and said in err and "Traceback" not in err, err
@@ -152,7 +152,7 @@ def test_files_written_together_take_ctrl_c_after_the_last():
     import subprocess
     import sys
 
-    code = ("import os, signal\nfrom xcheck.report.io import signals_deferred\nwritten = []\ntry:\n"
+    code = ("import os, signal\nfrom xcheck.base.interrupts import signals_deferred\nwritten = []\ntry:\n"
             "    with signals_deferred():\n        os.kill(os.getpid(), signal.SIGINT)\n"
             "        written += ['json', 'md']\nexcept KeyboardInterrupt:\n    print('interrupted after', written)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)

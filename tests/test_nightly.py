@@ -296,7 +296,7 @@ def test_a_killed_nightly_records_nothing_and_leaves_the_history_readable(tmp_pa
     assert _wait_for(pool_workers, timeout=60, step=0.05)
     import time
 
-    time.sleep(0.5)  # past the moment the workers start, while the parent ignores Ctrl-C (xcheck.pool)
+    time.sleep(0.5)  # past the moment the workers start, while the parent ignores Ctrl-C (xcheck.base.pool)
     p.send_signal(signal.SIGINT)
     p.communicate(timeout=120)
     assert p.returncode == 130

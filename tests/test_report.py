@@ -112,7 +112,7 @@ def test_unknown_block_is_refused(tmp_path):
 def test_cleanup_finishes_despite_an_interrupt():
     """A signal landing in the middle of the cleanup (the workers of a signalled process group die first) must
     not leave half a folder: each step runs to its end, then the interrupt goes on."""
-    from xcheck.report.render import _finish_despite_interrupts
+    from xcheck.base.files import _finish_despite_interrupts
 
     done, calls = [], {"n": 0}
 

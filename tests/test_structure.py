@@ -11,7 +11,7 @@ import xcheck
 
 PACKAGE = Path(xcheck.__file__).resolve().parent
 #: The core: mathematics, integrators, references, metrics, fields (docs/architecture.md).
-CORE = ["rotations", "seeds", "body", "trajectory", "fields", "integrators", "reference", "elliptic", "guard",
+CORE = ["base", "rotations", "seeds", "body", "trajectory", "fields", "integrators", "reference", "elliptic", "guard",
         "defaults", "metrics",
         "_jit", "paths", "results", "determination.methods", "determination.seed002", "league.boxes",
         "league.findings"]
@@ -125,7 +125,7 @@ def test_the_architecture_notes_name_every_module():
 
 def test_the_architecture_notes_name_nothing_that_does_not_exist():
     """Issue 25: a file name (``study.py``) is a file of the project, and a dotted name in backticks that starts with
-    a module of the package (``study.measure_run``, ``xcheck.pool.stop_pool``) is an attribute it has."""
+    a module of the package (``study.measure_run``, ``xcheck.base.pool.stop_pool``) is an attribute it has."""
     import importlib
     import re
 
@@ -192,3 +192,28 @@ def test_the_layer_check_sees_an_upward_arrow():
     edges = {"rotations": ["study"], "study": ["rotations"]}
     upward = {(m, n) for m, targets in edges.items() if _in(m, CORE) for n in targets if n and not _in(n, CORE)}
     assert upward == {("rotations", "study")}
+
+
+def test_every_refusal_is_a_user_error_and_exits_2_by_its_type(capsys):
+    """Issue 38: one base class, not a table of module names: each refusal class of the package derives from
+    base.errors.UserError, and the command line exits 2 on any subclass, even one it has never heard of."""
+    import argparse
+    import importlib
+
+    from xcheck import cli
+    from xcheck.base.errors import UserError
+
+    refusals = {"scenario": "ScenarioError", "models": "ModelError", "base.files": "OutputPathError",
+                "history.store": "HistoryError", "determination.methods": "DeterminationError",
+                "history.matrix": "MatrixError", "sweep.spec": "SweepError", "cli": "UsageError"}
+    for module, name in refusals.items():
+        assert issubclass(getattr(importlib.import_module(f"xcheck.{module}"), name), UserError), name
+
+    class NewRefusal(UserError):
+        pass
+
+    def command(args):
+        raise NewRefusal("thing.toml: [new] key: expected a number")
+
+    assert cli._run(argparse.Namespace(func=command)) == 2
+    assert capsys.readouterr().err == "xcheck: error: thing.toml: [new] key: expected a number\n"

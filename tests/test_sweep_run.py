@@ -522,7 +522,7 @@ def test_a_second_sweep_into_a_live_ones_folder_is_refused_before_any_work(tmp_p
     """Issue 37, 7: two sweeps into one --out lost cells (the second deleted the first's live log as an interrupted
     run's). The first's hold (here taken by hand, as a live run holds it) refuses the second, naming the holder; the
     first's log is untouched; once it ends the folder is free."""
-    from xcheck.report.io import held_alone
+    from xcheck.base.files import held_alone
 
     root = tmp_path / "out" / "small"
     root.mkdir(parents=True)

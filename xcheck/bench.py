@@ -189,7 +189,7 @@ def main(argv=None) -> int:
                      if sys.stderr.isatty() else None)
     print(format_rows(rows))
     if args.json:
-        from .report.io import write_json_atomic
+        from .base.files import write_json_atomic
 
         write_json_atomic(args.json, {"schema": "xcheck.bench/1", "versions": versions(), "results": rows})
     return 0

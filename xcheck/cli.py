@@ -12,7 +12,6 @@ import argparse
 import math
 import multiprocessing.util
 import os
-import signal
 import sys
 import threading
 import time
@@ -21,6 +20,15 @@ from contextlib import nullcontext
 from pathlib import Path
 
 from . import __version__
+from .base import interrupts
+from .base.errors import UsageError, UserError
+from .base.interrupts import (
+    Progress,
+    Terminated,
+    as_interrupt,
+    signals_as_interrupts,
+    stop_repeating,
+)
 
 _STARTED = time.perf_counter()  # when the command line was imported: the baseline of --timings
 
@@ -34,92 +42,8 @@ EXIT_OF = {"PASSED": EXIT_OK, "FAILED": EXIT_CHECK_FAILED, "INCONCLUSIVE": EXIT_
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 
 
-class UsageError(ValueError):
-    """Bad command-line input."""
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised in the main thread so that it unwinds (and cleans up) like Ctrl-C."""
-
-
-#: The signal this command received (Ctrl-C's SIGINT or SIGTERM), if any: one that lands inside an import of a
-#: compiled module, or inside MuJoCo's or Basilisk's call of ours, reaches us as that module's error
-#: ("ImportError: initialization failed", "Python exception raised"), which is then an interrupt all the same.
-_SIGNALLED: list = []
 #: The report folder this command has completed, if any: an interrupt after it says so, not "no report".
 _WRITTEN: list = []
-
-
-def _on_sigterm(signum, frame):
-    _signalled(signum)
-    raise Terminated()
-
-
-def _on_sigint(signum, frame):
-    _signalled(signum)
-    raise KeyboardInterrupt()
-
-
-#: An interrupt raised inside an object's ``__del__`` is printed as "Exception ignored" and lost; it is raised once
-#: more this long after the signal, wherever the work is then (the clean-up steps survive a second interrupt).
-REPEAT_INTERRUPT = 0.5
-
-
-def _signalled(signum) -> None:
-    _SIGNALLED.append(signum)
-    if len(_SIGNALLED) == 1 and hasattr(signal, "setitimer"):
-        signal.setitimer(signal.ITIMER_REAL, REPEAT_INTERRUPT)
-
-
-def _unraisable(hook):
-    """``sys.unraisablehook`` for the length of a command: an interrupt that lands in an object's ``__del__`` or in
-    a callback from compiled code (llvmlite's object cache, while numba loads) cannot be raised there; it is not
-    printed as "Exception ignored" with its traceback, as it is raised again where the work goes on (see
-    :data:`REPEAT_INTERRUPT`). Anything else goes to ``hook``."""
-    def on_unraisable(unraisable):
-        if isinstance(unraisable.exc_value, KeyboardInterrupt) and _SIGNALLED:
-            return
-        hook(unraisable)
-    return on_unraisable
-
-
-def _on_alarm(signum, frame):
-    # an interrupt already on its way out (its clean-up, its message) was not swallowed: raising a second one
-    # there would escape the handler that says "interrupted" and end the process by the signal (exit -2)
-    if not isinstance(sys.exc_info()[1], KeyboardInterrupt):
-        _raise_if_signalled()
-
-
-def _raise_if_signalled() -> None:
-    """Raise the interrupt again where the work reports progress: one raised inside an object's ``__del__`` (a
-    compiled module's, while this process imports or compiles) is printed as "Exception ignored" and the work
-    goes on, as if there had been no Ctrl-C."""
-    if _SIGNALLED:
-        raise Terminated() if _SIGNALLED[0] == signal.SIGTERM else KeyboardInterrupt()
-
-
-# ------------------------------------------------------------------------------------------------
-# progress: a bar on a terminal, nothing otherwise
-# ------------------------------------------------------------------------------------------------
-class Progress:
-    def __init__(self, enabled: bool | None = None, stream=None):
-        self.stream = sys.stderr if stream is None else stream  # the stream of now, not of import time (pytest's capsys)
-        self.enabled = self.stream.isatty() if enabled is None else enabled
-        self.start = time.perf_counter()
-
-    def __call__(self, done: int, total: int, label: str = ""):
-        _raise_if_signalled()
-        if not self.enabled:
-            return
-        width = 30
-        filled = int(width * done / max(total, 1))
-        elapsed = time.perf_counter() - self.start
-        eta = f" ETA {elapsed * (total - done) / done:4.0f}s" if 0 < done < total else ""
-        line = f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} {elapsed:5.1f}s{eta} {label}"
-        self.stream.write(line[:120].ljust(120))
-        self.stream.flush()
-        if done >= total:
-            self.stream.write("\n")
 
 
 # ------------------------------------------------------------------------------------------------
@@ -218,8 +142,8 @@ def _steps_arg(text, scenario):
 
 
 def _cmd_converge(args) -> int:
+    from .base.pool import worker_pool
     from .engines import ENGINES, available
-    from .pool import worker_pool
     from .report.build import worker_modules
 
     # A study is quicker in this process than shared with workers, which each pay 1-1.5 s of imports and
@@ -235,7 +159,7 @@ def _cmd_converge(args) -> int:
 
 
 def _converge(args, pool) -> int:
-    from .report.io import check_output_dir, check_output_file, write_json_atomic
+    from .base.files import check_output_dir, check_output_file, write_json_atomic
     from .runners import RUNNERS
     from .scenario import resolve_scenario
     from .study import default_methods, run_study
@@ -268,7 +192,7 @@ def _converge(args, pool) -> int:
 
 
 def _cmd_run(args) -> int:
-    from .report.io import check_output_file, write_trajectory_csv
+    from .base.files import check_output_file, write_trajectory_csv
     from .runners import RUNNERS
     from .scenario import resolve_scenario
     from .study.single import run_once
@@ -338,9 +262,9 @@ def _cmd_report(args) -> int:
 
 def _cmd_nightly(args) -> int:
     """The full report, compared with the history, then recorded in it (see :mod:`xcheck.history.nightly`)."""
+    from .base.files import check_output_dir
     from .history import nightly
     from .report.build import resolve_scenarios
-    from .report.io import check_output_dir
 
     if args.keep is not None and args.keep < 1:
         raise UsageError(f"--keep: expected a positive number of report folders, got {args.keep}")
@@ -379,8 +303,8 @@ def _cmd_nightly(args) -> int:
 
 
 def _cmd_bench(args) -> int:
+    from .base.files import check_output_file
     from .bench import main as bench_main
-    from .report.io import check_output_file
 
     _with_engines(args)
     if args.repeat < 1:
@@ -437,7 +361,7 @@ def _with_engines(args) -> None:
 def _markdown_and_json(args):
     """A docs command's ``--out FILE.md`` (returned, None when not given) and ``--json PATH``, checked before any
     work."""
-    from .report.io import check_output_file
+    from .base.files import check_output_file
 
     out = check_output_file(args.out, "--out", suffixes=(".md",)) if args.out else None
     if args.json:
@@ -447,10 +371,10 @@ def _markdown_and_json(args):
 
 def _cmd_league(args) -> int:
     """The boxes benchmark's league table: MuJoCo's integrators and ours beside the published engines."""
+    from .base.files import write_json_atomic
     from .league.boxes import STEPS
     from .league.run import QUICK_STEPS, run_league
     from .league.table import checks, markdown, table_rows
-    from .report.io import write_json_atomic
 
     given = args.steps is not None
     steps = tuple(_csv_list(args.steps, float, "--steps")) if given else (QUICK_STEPS if args.quick else STEPS)
@@ -464,12 +388,12 @@ def _cmd_league(args) -> int:
                              "each kept in memory)")
     out = _markdown_and_json(args)
     if out is not None:
+        from .base.files import check_output_file
         from .league.table import FIGURE
-        from .report.io import check_output_file
 
         check_output_file(out.parent / FIGURE, "--out (its figure, beside it)", suffixes=(".png",))
     workers = args.workers or os.cpu_count() or 1
-    from .pool import worker_pool
+    from .base.pool import worker_pool
 
     with worker_pool(workers, warm=("xcheck.league.run", "mujoco")) if workers > 1 else nullcontext() as pool:
         rows = run_league(steps, pool=pool, progress=Progress())
@@ -483,7 +407,8 @@ def _cmd_league(args) -> int:
     failed = [c for c in checks(rows) if not c[1]]
     for what, _, why in failed:
         print(f"FAILED {what}: {why}")
-    from .report.io import signals_deferred, write_bytes_atomic, write_text_atomic
+    from .base.files import write_bytes_atomic, write_text_atomic
+    from .base.interrupts import signals_deferred
     from .versions import versions
 
     v = versions()
@@ -524,6 +449,7 @@ def _releases_arg(text: str) -> list[str]:
 
 def _cmd_releases(args) -> int:
     """Every MuJoCo release on the bundled scenarios and the boxes: docs/mujoco-releases.md, or a bisection."""
+    from .base.files import write_json_atomic, write_text_atomic
     from .league.releases import (
         PROBE_SCENARIO,
         RELEASES,
@@ -535,7 +461,6 @@ def _cmd_releases(args) -> int:
         rk4_order,
         run_probe,
     )
-    from .report.io import write_json_atomic, write_text_atomic
 
     versions = _releases_arg(args.mujoco) if args.mujoco is not None else list(RELEASES)
     out = _markdown_and_json(args)
@@ -596,8 +521,8 @@ def _cmd_releases(args) -> int:
 
 def _cmd_mjx(args) -> int:
     """MJX in float32 and float64 on the bundled scenarios, and its batched steps per second: docs/mjx.md."""
+    from .base.files import write_json_atomic, write_text_atomic
     from .engines import available
-    from .report.io import write_json_atomic, write_text_atomic
 
     if not available("mjx"):
         raise UsageError("mjx: MJX is not installed here: pip install 'xcheck[mjx]' (the PyPI packages mujoco-mjx "
@@ -652,7 +577,7 @@ def _cmd_mjx(args) -> int:
 
 def _cmd_sweep(args) -> int:
     """A sweep: every cell a cross-check (see :mod:`xcheck.sweep.spec` and :mod:`xcheck.sweep.run`)."""
-    from .report.io import check_output_dir
+    from .base.files import check_output_dir
     from .sweep.run import PARTIAL_LOG, run_sweep
     from .sweep.spec import MAX_CELLS, resolve_sweep
 
@@ -699,9 +624,14 @@ def _cmd_sweep(args) -> int:
 
 def _cmd_init(args) -> int:
     """The scenario file an MJCF file stands for, every key present and commented, to edit."""
-    from .report.io import check_output_file, write_text_atomic
+    from .base.files import check_output_file, write_text_atomic
     from .paths import input_problem
-    from .scenario import foreign_model, is_model_arg, model_scenario_text, split_model_arg
+    from .scenario import (
+        foreign_model,
+        is_model_arg,
+        model_scenario_text,
+        split_model_arg,
+    )
 
     foreign = foreign_model(args.model)
     if foreign:
@@ -729,7 +659,7 @@ def _cmd_init(args) -> int:
 
 def _cmd_determine(args) -> int:
     """Seed 002's tables reproduced (``--seed002``), or a scenario's attitude-determination study alone."""
-    from .report.io import check_output_dir, check_output_file
+    from .base.files import check_output_dir, check_output_file
 
     if args.seed002 == bool(args.scenario):
         raise UsageError("give a SCENARIO (its [determination] study) or --seed002 (the seed's tables), one of them")
@@ -755,7 +685,7 @@ def _cmd_determine(args) -> int:
     for line in summary_lines(data):
         print(line)
     if args.json:
-        from .report.io import write_json_atomic
+        from .base.files import write_json_atomic
 
         write_json_atomic(Path(args.json), data)
     if args.out:
@@ -946,47 +876,37 @@ def main(argv: list[str] | None = None) -> int:
     # a Python subprocess of its own (80 ms a process; and a worker stopped while it imported left that probe
     # printing a BrokenPipeError). Inherited by the workers; a MUJOCO_GL of the user's is kept.
     os.environ.setdefault("MUJOCO_GL", "disable")
-    previous = None
-    _SIGNALLED.clear()  # a command run again in the same process (the tests) starts uninterrupted
-    if threading.current_thread() is threading.main_thread():  # first: a signal from now on is ours to report
-        previous = [(sig, signal.signal(sig, handler)) for sig, handler in
-                    ((signal.SIGTERM, _on_sigterm), (signal.SIGINT, _on_sigint),
-                     *(((signal.SIGALRM, _on_alarm),) if hasattr(signal, "SIGALRM") else ()))]
-    previous_hook, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
-    try:
-        parser = build_parser()
+    with signals_as_interrupts():
         try:
-            args = parser.parse_args(argv)
-        except SystemExit as exc:  # argparse's own usage errors (exit 2, message printed), --help, --version
-            return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
-        if not hasattr(args, "func"):
-            parser.print_help()
-            return EXIT_BAD_INPUT
-        if getattr(args, "workers", None) is not None and args.workers < 1:
-            print("xcheck: error: --workers: expected a positive number of processes", file=sys.stderr)
-            return EXIT_BAD_INPUT
-        cpus = os.cpu_count() or 1
-        if getattr(args, "workers", None) is not None and args.workers > cpus:  # 1000 made a 2 s job take 107 s
-            print(f"note: --workers {args.workers}: {cpus} worker processes, one per CPU (more would only share them "
-                  "and each holds ~55 MB)", file=sys.stderr)
-            args.workers = cpus
-        warnings.filterwarnings("ignore", category=UserWarning, module=r"xcheck\.models")
-        return _run(args)
-    except KeyboardInterrupt as exc:  # before a command started (its own interrupts are reported by _run)
-        return _interrupted(exc, None)
-    finally:
-        sys.unraisablehook = previous_hook
-        if previous is not None:
-            if hasattr(signal, "setitimer"):
-                signal.setitimer(signal.ITIMER_REAL, 0)
-            for sig, handler in previous:
-                signal.signal(sig, handler)
+            return _parse_and_run(argv)
+        except KeyboardInterrupt as exc:  # before a command started (its own interrupts are reported by _run)
+            return _interrupted(exc, None)
+
+
+def _parse_and_run(argv) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse's own usage errors (exit 2, message printed), --help, --version
+        return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
+    if not hasattr(args, "func"):
+        parser.print_help()
+        return EXIT_BAD_INPUT
+    if getattr(args, "workers", None) is not None and args.workers < 1:
+        print("xcheck: error: --workers: expected a positive number of processes", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    cpus = os.cpu_count() or 1
+    if getattr(args, "workers", None) is not None and args.workers > cpus:  # 1000 made a 2 s job take 107 s
+        print(f"note: --workers {args.workers}: {cpus} worker processes, one per CPU (more would only share them "
+              "and each holds ~55 MB)", file=sys.stderr)
+        args.workers = cpus
+    warnings.filterwarnings("ignore", category=UserWarning, module=r"xcheck\.models")
+    return _run(args)
 
 
 def _interrupted(exc: KeyboardInterrupt, written) -> int:
     """Ctrl-C or SIGTERM, reported in one line: exit 130 or 143."""
-    if hasattr(signal, "setitimer"):
-        signal.setitimer(signal.ITIMER_REAL, 0)
+    stop_repeating()
     # CPython marks an interrupt that leaves a string ``exec`` (a dataclass being made while a module imports)
     # "unhandled" even once it is caught, and ``python -m xcheck`` then ends by the signal (-2), not with 130.
     # Every string exec clears that mark as it starts.
@@ -994,17 +914,6 @@ def _interrupted(exc: KeyboardInterrupt, written) -> int:
     what = f"the report {written} is complete" if written else "no report was written"
     print(f"\nxcheck: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}; {what}", file=sys.stderr)
     return EXIT_TERMINATED if isinstance(exc, Terminated) else EXIT_INTERRUPTED
-
-
-#: The errors a user can cause, by the module that raises them (imported only by the commands that use them).
-USER_ERRORS = (("xcheck.scenario", "ScenarioError"), ("xcheck.models", "ModelError"), ("xcheck.report.io",
-               "OutputPathError"), ("xcheck.history.store", "HistoryError"), ("xcheck.determination.methods", "DeterminationError"))
-
-
-def _user_errors() -> tuple:
-    """:class:`UsageError` and the user-error classes of the modules this command loaded (a module it did not load
-    raised nothing): ``xcheck converge`` need not import the determination's numba code to report a bad file."""
-    return (UsageError, *(getattr(sys.modules[m], name) for m, name in USER_ERRORS if m in sys.modules))
 
 
 def _run(args) -> int:
@@ -1026,14 +935,14 @@ def _run(args) -> int:
         except KeyboardInterrupt:
             raise
         except Exception:
-            if _SIGNALLED:  # the signal, turned into another error by the module it landed in (see _SIGNALLED)
-                raise (Terminated() if _SIGNALLED[0] == signal.SIGTERM else KeyboardInterrupt()) from None
+            if interrupts.SIGNALLED:  # the signal, turned into another error by the module it landed in
+                raise as_interrupt() from None
             raise
     except BrokenProcessPool:
         print("xcheck: error: a worker process died (killed from outside, or out of memory); no report was written",
               file=sys.stderr)
         return EXIT_BUG
-    except _user_errors() as exc:
+    except UserError as exc:
         print(f"xcheck: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt as exc:

@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 
 from . import rotations as rot
+from .base.errors import UserError
 from .body import MAX_GRAVITY, MAX_RATE, RigidBody
 from .paths import input_problem, xml_root
 from .trajectory import check_initial_state
@@ -30,7 +31,7 @@ __all__ = ["ModelError", "MJCFBody", "Wheel", "load_body", "load_mujoco", "compo
 DIPOLE_NUMERIC = "xcheck_dipole"
 
 
-class ModelError(ValueError):
+class ModelError(UserError):
     """An MJCF file that xcheck cannot use; the message names the file and the reason."""
 
 

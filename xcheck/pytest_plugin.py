@@ -44,7 +44,7 @@ def pytest_configure(config):
     an internal error after the last test)."""
     out = config.getoption("xcheck_report", None)
     if out is not None:
-        from .report.io import OutputPathError, check_output_dir
+        from .base.files import OutputPathError, check_output_dir
 
         try:
             check_output_dir(out, "--xcheck-report")

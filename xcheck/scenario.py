@@ -17,9 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from . import rotations as rot
+from .base.errors import UserError
 from .defaults import SEED_QUICK_STEPS, SEED_STEPS, derive
-from .torque_terms import TORQUE_KINDS, copy_torque, magnetic_term, torque_terms  # noqa: F401 (re-exported)
 from .paths import BUNDLED_MODELS, foreign_model, input_problem
+from .torque_terms import TORQUE_KINDS, copy_torque, magnetic_term, torque_terms  # noqa: F401 (re-exported)
 from .trajectory import check_initial_state
 
 if sys.version_info >= (3, 11):
@@ -76,7 +77,7 @@ DEFAULT_CHECKS = {
 }
 
 
-class ScenarioError(ValueError):
+class ScenarioError(UserError):
     """A scenario file that cannot be used; the message names the file and the key."""
 
 

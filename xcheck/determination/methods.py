@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._jit import njit
+from ..base.errors import UserError
 from ..rotations import _check, dcm_to_quat, quat_to_dcm, skew
 
 __all__ = [
@@ -55,7 +56,7 @@ NEAR_ANGLE_DEG = 1.0
 PARALLEL_SIN = 1e-10
 
 
-class DeterminationError(ValueError):
+class DeterminationError(UserError):
     """Input that does not determine an attitude; the message names the argument and the problem."""
 
 

@@ -28,6 +28,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..base.errors import UserError
+from ..base.files import alive
 from ..versions import NOT_INSTALLED, package_version
 from .store import utc_now
 
@@ -36,7 +38,7 @@ PINNED = ("numpy", "scipy", "numba", "llvmlite", "matplotlib")
 _RELEASE = re.compile(r"^(0|[1-9]\d*)\.(0|[1-9]\d*)\.(0|[1-9]\d*)$")  # as PyPI spells them: no leading zeros
 
 
-class MatrixError(ValueError):
+class MatrixError(UserError):
     """A version that cannot be installed or run; the message says why."""
 
 
@@ -129,7 +131,7 @@ def prune_envs(root: Path | None = None) -> list[Path]:
             continue
         half = re.match(r"^\..*\.(\d+)$", p.name)
         if half:
-            stale = not _alive(int(half.group(1)))
+            stale = not alive(int(half.group(1)))
         else:
             pth = next(p.glob("lib*/python*/site-packages/xcheck_parent_environment.pth"), None)
             parent = re.search(r"addsitedir\((['\"])(.*)\1\)", pth.read_text()) if pth else None
@@ -138,16 +140,6 @@ def prune_envs(root: Path | None = None) -> list[Path]:
             shutil.rmtree(p, ignore_errors=True)
             gone.append(p)
     return gone
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # someone else's process
-        return True
-    return True
 
 
 def _python(env: Path) -> Path:

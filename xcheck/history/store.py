@@ -40,6 +40,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..base.errors import UserError
 from ..results import outcome_value
 
 APPLICATION = "xcheck.history"
@@ -77,7 +78,7 @@ CREATE INDEX IF NOT EXISTS sweep_cells_by_run ON sweep_cells (run_id, scenario)
 """
 
 
-class HistoryError(ValueError):
+class HistoryError(UserError):
     """A history that cannot be used (not a database, not xcheck's, a newer schema, cannot be opened): the
     message names the file or URL and what was expected; the database is left untouched."""
 

@@ -86,7 +86,7 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
     results document (the nightly's History), see :func:`xcheck.report.render.write_report`. ``written(folder)`` is
     called as soon as the folder is complete (an interrupt after it has a complete report). ``started``: the
     first mark (the command's start)."""
-    from ..pool import worker_pool
+    from ..base.pool import worker_pool
     from .render import write_report
 
     t0 = time.perf_counter()
@@ -96,9 +96,9 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
     # Basilisk) while this process imports its own
     size = max(1, (workers or os.cpu_count() or 2) - 1)
     with worker_pool(size, warm=worker_modules()) if workers != 1 else nullcontext() as pool:
+        from ..base.files import check_output_dir
         from ..scenario import Scenario
         from ..study import run_studies, throughput_rows
-        from .io import check_output_dir
 
         if not scenarios or not all(isinstance(sc, Scenario) for sc in scenarios):  # none: every bundled one
             scenarios = resolve_scenarios(scenarios)

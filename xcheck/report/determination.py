@@ -148,10 +148,14 @@ def write_determination(data: dict, drawn, out_root, seed002: dict | None = None
     atomically (``index.html``, ``report.md``, ``results.json``, ``plots/``); returns the folder."""
     from datetime import datetime, timezone
 
+    from ..base.files import (
+        StampedFolder,
+        write_bytes_atomic,
+        write_json_atomic,
+        write_text_atomic,
+    )
     from ..versions import versions
     from .document import Verdict, to_html, to_markdown
-    from .io import write_bytes_atomic, write_json_atomic, write_text_atomic
-    from .render import StampedFolder
 
     ok = data["passed"] and (seed002 is None or seed002["passed"])
     results = {"schema": "xcheck.determination/1", "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),

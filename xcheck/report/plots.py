@@ -126,7 +126,7 @@ def scenario_figures(data: dict, series: dict, out_dir, *, quick: bool = False) 
     """:func:`render_figures` written into ``out_dir`` (each file atomically); returns ``[(file name, caption)]``."""
     from pathlib import Path
 
-    from .io import write_bytes_atomic
+    from ..base.files import write_bytes_atomic
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

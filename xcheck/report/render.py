@@ -5,10 +5,6 @@ renamed into place only when complete; ``latest`` then points at it."""
 from __future__ import annotations
 
 import dataclasses
-import errno
-import os
-import shutil
-import socket
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
@@ -16,11 +12,27 @@ from types import MappingProxyType
 
 import numpy as np
 
+from ..base.files import (
+    StampedFolder,
+    write_bytes_atomic,
+    write_json_atomic,
+    write_text_atomic,
+    write_trajectory_csv,
+)
 from ..results import outcome_of
 from ..trajectory import step_label
 from ..versions import machine, versions
-from .document import Cell, Contents, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
-from .io import write_json_atomic, write_text_atomic, write_trajectory_csv
+from .document import (
+    Cell,
+    Contents,
+    Figure,
+    Heading,
+    Para,
+    Table,
+    Verdict,
+    to_html,
+    to_markdown,
+)
 
 __all__ = ["write_report", "draw_figures", "report_document", "report_results", "with_sections", "Section",
            "StampedFolder", "REPORT_SCHEMA", "verdict_of", "fmt"]
@@ -92,8 +104,7 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
     reports finishing in the same second get distinct names (``<stamp>-2``)."""
     import time
 
-    from ..pool import stop_pool
-    from .io import write_bytes_atomic
+    from ..base.pool import stop_pool
 
     marks = [] if marks is None else marks
     figures = dict(figures or {})
@@ -130,136 +141,11 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
     return folder.final
 
 
-class StampedFolder:
-    """``with StampedFolder(out_root) as tmp:`` write into ``tmp``, a hidden ``.incomplete-<stamp>-<host>-<pid>``
-    folder; when the block completes it is renamed to ``out_root/<stamp>`` (:attr:`final`; ``<stamp>-2``, ... if
-    taken) and ``out_root/latest`` points at it. On any error or interrupt, ``on_failure`` runs first (stopping
-    workers whose writes could land later), then the folder is removed, each step to its end despite a
-    further Ctrl-C. What killed writers left behind is removed on entry (:func:`remove_stale`). The report and
-    a sweep's folder are both written this way."""
-
-    def __init__(self, out_root, *, stamp: str | None = None, on_failure=None):
-        self.out_root = Path(out_root)
-        self.stamp = stamp or datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
-        self.on_failure = on_failure
-        self.final: Path | None = None
-
-    def __enter__(self) -> Path:
-        self.out_root.mkdir(parents=True, exist_ok=True)
-        remove_stale(self.out_root)
-        self.tmp = self.out_root / f"{_INCOMPLETE}{self.stamp}-{_owner()}"
-        shutil.rmtree(self.tmp, ignore_errors=True)
-        try:
-            self.tmp.mkdir()
-            return self.tmp
-        except BaseException:  # an interrupt between the mkdir and the with-block (no __exit__ for it)
-            _finish_despite_interrupts(lambda: shutil.rmtree(self.tmp, ignore_errors=True))
-            raise
-
-    def __exit__(self, exc_type, exc, tb):
-        try:
-            if exc_type is None:
-                self.final = _rename_into_place(self.tmp, self.out_root, self.stamp)
-        except BaseException:
-            self._clean_up()
-            raise
-        if exc_type is not None:
-            self._clean_up()
-            return False
-        _point_latest(self.out_root, self.final)
-        return False
-
-    def _clean_up(self) -> None:
-        _finish_despite_interrupts(self.on_failure or (lambda: None),
-                                   lambda: shutil.rmtree(self.tmp, ignore_errors=True))
-
-
-def _finish_despite_interrupts(*steps) -> None:
-    """Run every cleanup step to its end even when Ctrl-C or SIGTERM arrives during one (SIGTERM is raised as a
-    KeyboardInterrupt: with a process group signalled, the workers die first and the parent's own signal can
-    land in the middle of removing the folder); the first interrupt is raised again once all are done."""
-    pending = None
-    for step in steps:
-        while True:
-            try:
-                step()
-                break
-            except KeyboardInterrupt as exc:  # repeat the step: each is safe to run again
-                pending = pending or exc
-    if pending is not None:
-        raise pending
-
-
 def draw_figures(data: dict, series: dict, quick: bool = False) -> list[tuple[str, str, bytes]]:
     """:func:`xcheck.report.plots.render_figures`, importing matplotlib only where it runs (a worker)."""
     from .plots import render_figures
 
     return render_figures(data, series, quick=quick)
-
-
-_INCOMPLETE = ".incomplete-"
-
-
-def _owner() -> str:
-    """``<host>-<pid>``: who is writing a hidden temporary folder or link."""
-    host = "".join(c if c.isalnum() else "_" for c in socket.gethostname())[:40] or "host"
-    return f"{host}-{os.getpid()}"
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # exists, but not ours to signal
-        return True
-    return True
-
-
-def remove_stale(out_root: Path) -> list[Path]:
-    """Remove what killed runs on this host left in ``out_root``: ``.incomplete-*`` folders and ``.latest-*``
-    links whose writing process is gone. Returns what was removed."""
-    host = _owner().rsplit("-", 1)[0]
-    removed = []
-    for p in out_root.glob(".*-*"):
-        if not (p.name.startswith(_INCOMPLETE) or p.name.startswith(".latest-")):
-            continue
-        owner_host, _, pid = p.name.rpartition("-")
-        if not (pid.isdigit() and owner_host.endswith("-" + host)) or _alive(int(pid)):
-            continue
-        if p.is_symlink() or p.is_file():
-            p.unlink(missing_ok=True)
-        else:
-            shutil.rmtree(p, ignore_errors=True)
-        removed.append(p)
-    return removed
-
-
-def _rename_into_place(tmp: Path, out_root: Path, stamp: str) -> Path:
-    """Rename ``tmp`` to ``out_root/<stamp>`` or, if another report took that name first, ``<stamp>-2``, ..."""
-    for n in range(1, 10_000):
-        final = out_root / (stamp if n == 1 else f"{stamp}-{n}")
-        if final.exists():
-            continue
-        try:
-            os.rename(tmp, final)
-            return final
-        except OSError as exc:  # taken between the check and the rename (a concurrent report)
-            if exc.errno not in (errno.EEXIST, errno.ENOTEMPTY) and not final.exists():
-                raise
-    raise OSError(errno.EEXIST, f"no free report name for {stamp} in {out_root}")
-
-
-def _point_latest(out_root: Path, final: Path):
-    link = out_root / "latest"
-    tmp_link = out_root / f".latest-{_owner()}"
-    try:
-        tmp_link.unlink(missing_ok=True)
-        tmp_link.symlink_to(final.name, target_is_directory=True)
-        os.replace(tmp_link, link)
-    except OSError:  # no symlinks here: a text file naming the folder
-        tmp_link.unlink(missing_ok=True)
-        write_text_atomic(out_root / "latest.txt", final.name + "\n")
 
 
 def _write_csvs(st, folder: Path):

@@ -16,14 +16,19 @@ from pathlib import Path
 
 import numpy as np
 
+from ..base.files import (
+    StampedFolder,
+    write_bytes_atomic,
+    write_json_atomic,
+    write_text_atomic,
+)
 from ..history.store import finest_error
 from ..runners import RUNNERS
 from ..sweep.spec import AXES, SUMMARIES, SweepSpec, flat_params
 from ..trajectory import step_label
 from ..versions import machine, versions
 from .document import Cell, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
-from .render import StampedFolder, fmt
-from .io import write_bytes_atomic, write_json_atomic, write_text_atomic
+from .render import fmt
 
 __all__ = ["write_sweep", "sweep_figures", "tidy_rows", "csv_text", "SWEEP_SCHEMA", "ACCURACY"]
 

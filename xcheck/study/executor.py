@@ -6,8 +6,8 @@ from __future__ import annotations
 from concurrent.futures import FIRST_COMPLETED, as_completed, wait
 from itertools import groupby
 
+from ..base.pool import ready_workers, worker_pool
 from ..engines import ENGINES
-from ..pool import ready_workers, worker_pool
 from ..runners import RUNNERS
 
 __all__ = ["map_tasks", "prefer_here", "COLD_WORKER_TASKS"]

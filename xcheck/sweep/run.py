@@ -113,7 +113,7 @@ class SweepLog:
 
     def start(self) -> None:
         """Write the log afresh: its header and the records kept (atomic; appended to from then on)."""
-        from ..report.io import write_text_atomic
+        from ..base.files import write_text_atomic
 
         lines = [json.dumps({"schema": LOG_SCHEMA, "fingerprint": self.fingerprint})]
         lines += [json.dumps(r, allow_nan=False) for r in self.records.values()]
@@ -399,14 +399,14 @@ WORKER_MODULES = ("xcheck.sweep.run", "xcheck.study", "xcheck.engines.mujoco")
 
 @contextmanager
 def executor(kind: str = "local", jobs: int = 1, scheduler: str | None = None):
-    """``local`` with ``jobs`` 1: this process; ``jobs`` > 1: spawned worker processes (:mod:`xcheck.pool`).
+    """``local`` with ``jobs`` 1: this process; ``jobs`` > 1: spawned worker processes (:mod:`xcheck.base.pool`).
     ``dask``: a Dask distributed cluster at ``scheduler``, or a ``LocalCluster`` of ``jobs`` single-threaded
     worker processes (MuJoCo's control callback is process-global: one task per process at a time)."""
     if kind == "local":
         if jobs == 1:
             yield _InProcess()
             return
-        from ..pool import worker_pool
+        from ..base.pool import worker_pool
 
         with worker_pool(jobs, warm=WORKER_MODULES) as pool:
             for f in [pool.submit(_ready) for _ in range(jobs)]:  # started and warmed: the start-up is measured
@@ -428,7 +428,7 @@ def executor(kind: str = "local", jobs: int = 1, scheduler: str | None = None):
         with client:
             yield _Dask(client, f"the Dask cluster at {scheduler}")
         return
-    from ..pool import interrupts_deferred, spawned_with_sigint_blocked
+    from ..base.pool import interrupts_deferred, spawned_with_sigint_blocked
 
     with ExitStack() as stack:
         # built whole (a Ctrl-C meanwhile is raised once it stands, and the stack closes it), its workers ignoring
@@ -535,8 +535,8 @@ def run_sweep(spec: SweepSpec, out_root, *, jobs: int = 1, resume: bool = False,
     (:func:`xcheck.report.sweep.write_sweep`). ``resume``: keep the cells of an interrupted run (its log), or
     of the latest complete one (``latest/cells.jsonl``: a spec given more values runs only the new cells).
     ``progress(done, total, label)`` as chunks finish; ``say(text)`` for notes. Another run writing into the same
-    folder: :class:`xcheck.report.io.BusyError`, before any work."""
-    from ..report.io import held_alone
+    folder: :class:`xcheck.base.files.BusyError`, before any work."""
+    from ..base.files import held_alone
 
     t_start = time.perf_counter()
     root = Path(out_root) / spec.path.stem

@@ -1,17 +1,22 @@
-"""Output paths, checked before any work, and atomic writes: a file or folder appears under its final name
-only when complete."""
+"""Output paths, checked before any work; atomic writes and stamped folders: a file or folder appears under its
+final name only when complete; a folder held by one process at a time."""
 
 from __future__ import annotations
 
 import errno
 import json
 import os
+import shutil
+import socket
 import tempfile
 from contextlib import contextmanager
+from datetime import datetime, timezone
 from pathlib import Path
 
+from .errors import UserError
 
-class OutputPathError(ValueError):
+
+class OutputPathError(UserError):
     """An output path that cannot be written; the message names the argument and the path."""
 
 
@@ -58,25 +63,6 @@ def check_output_dir(path, what: str) -> Path:
         raise OutputPathError(f"{what}: {p} is a file; expected a folder")
     _usable_folder(p, what)
     return p
-
-
-@contextmanager
-def signals_deferred():
-    """Ctrl-C and SIGTERM held back for the length of a block (delivered as it ends): files written in it land all
-    or none of them, where each alone is atomic (a league's JSON without its Markdown once said "no report was
-    written"). Only in the main thread; elsewhere a plain block."""
-    import signal
-    import threading
-
-    held = {signal.SIGINT, signal.SIGTERM}
-    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    before = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
 class BusyError(OutputPathError):
@@ -173,3 +159,132 @@ def write_trajectory_csv(path, comment: str, t, q, omega, attitude_error, euler=
     lines = [f"# {comment}", ",".join(header)]
     lines += [",".join("" if not np.isfinite(v) else f"{v:.17g}" for v in row) for row in np.hstack(cols)]
     write_text_atomic(path, "\n".join(lines) + "\n")
+
+
+# ------------------------------------------------------------------------------------------------
+# stamped folders
+# ------------------------------------------------------------------------------------------------
+class StampedFolder:
+    """``with StampedFolder(out_root) as tmp:`` write into ``tmp``, a hidden ``.incomplete-<stamp>-<host>-<pid>``
+    folder; when the block completes it is renamed to ``out_root/<stamp>`` (:attr:`final`; ``<stamp>-2``, ... if
+    taken) and ``out_root/latest`` points at it. On any error or interrupt, ``on_failure`` runs first (stopping
+    workers whose writes could land later), then the folder is removed, each step to its end despite a
+    further Ctrl-C. What killed writers left behind is removed on entry (:func:`remove_stale`). The report and
+    a sweep's folder are both written this way."""
+
+    def __init__(self, out_root, *, stamp: str | None = None, on_failure=None):
+        self.out_root = Path(out_root)
+        self.stamp = stamp or datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%SZ")
+        self.on_failure = on_failure
+        self.final: Path | None = None
+
+    def __enter__(self) -> Path:
+        self.out_root.mkdir(parents=True, exist_ok=True)
+        remove_stale(self.out_root)
+        self.tmp = self.out_root / f"{_INCOMPLETE}{self.stamp}-{_owner()}"
+        shutil.rmtree(self.tmp, ignore_errors=True)
+        try:
+            self.tmp.mkdir()
+            return self.tmp
+        except BaseException:  # an interrupt between the mkdir and the with-block (no __exit__ for it)
+            _finish_despite_interrupts(lambda: shutil.rmtree(self.tmp, ignore_errors=True))
+            raise
+
+    def __exit__(self, exc_type, exc, tb):
+        try:
+            if exc_type is None:
+                self.final = _rename_into_place(self.tmp, self.out_root, self.stamp)
+        except BaseException:
+            self._clean_up()
+            raise
+        if exc_type is not None:
+            self._clean_up()
+            return False
+        _point_latest(self.out_root, self.final)
+        return False
+
+    def _clean_up(self) -> None:
+        _finish_despite_interrupts(self.on_failure or (lambda: None),
+                                   lambda: shutil.rmtree(self.tmp, ignore_errors=True))
+
+
+def _finish_despite_interrupts(*steps) -> None:
+    """Run every cleanup step to its end even when Ctrl-C or SIGTERM arrives during one (SIGTERM is raised as a
+    KeyboardInterrupt: with a process group signalled, the workers die first and the parent's own signal can
+    land in the middle of removing the folder); the first interrupt is raised again once all are done."""
+    pending = None
+    for step in steps:
+        while True:
+            try:
+                step()
+                break
+            except KeyboardInterrupt as exc:  # repeat the step: each is safe to run again
+                pending = pending or exc
+    if pending is not None:
+        raise pending
+
+
+_INCOMPLETE = ".incomplete-"
+
+
+def _owner() -> str:
+    """``<host>-<pid>``: who is writing a hidden temporary folder or link."""
+    host = "".join(c if c.isalnum() else "_" for c in socket.gethostname())[:40] or "host"
+    return f"{host}-{os.getpid()}"
+
+
+def alive(pid: int) -> bool:
+    """Whether process ``pid`` runs (on this host)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, but not ours to signal
+        return True
+    return True
+
+
+def remove_stale(out_root: Path) -> list[Path]:
+    """Remove what killed runs on this host left in ``out_root``: ``.incomplete-*`` folders and ``.latest-*``
+    links whose writing process is gone. Returns what was removed."""
+    host = _owner().rsplit("-", 1)[0]
+    removed = []
+    for p in out_root.glob(".*-*"):
+        if not (p.name.startswith(_INCOMPLETE) or p.name.startswith(".latest-")):
+            continue
+        owner_host, _, pid = p.name.rpartition("-")
+        if not (pid.isdigit() and owner_host.endswith("-" + host)) or alive(int(pid)):
+            continue
+        if p.is_symlink() or p.is_file():
+            p.unlink(missing_ok=True)
+        else:
+            shutil.rmtree(p, ignore_errors=True)
+        removed.append(p)
+    return removed
+
+
+def _rename_into_place(tmp: Path, out_root: Path, stamp: str) -> Path:
+    """Rename ``tmp`` to ``out_root/<stamp>`` or, if another report took that name first, ``<stamp>-2``, ..."""
+    for n in range(1, 10_000):
+        final = out_root / (stamp if n == 1 else f"{stamp}-{n}")
+        if final.exists():
+            continue
+        try:
+            os.rename(tmp, final)
+            return final
+        except OSError as exc:  # taken between the check and the rename (a concurrent report)
+            if exc.errno not in (errno.EEXIST, errno.ENOTEMPTY) and not final.exists():
+                raise
+    raise OSError(errno.EEXIST, f"no free report name for {stamp} in {out_root}")
+
+
+def _point_latest(out_root: Path, final: Path):
+    link = out_root / "latest"
+    tmp_link = out_root / f".latest-{_owner()}"
+    try:
+        tmp_link.unlink(missing_ok=True)
+        tmp_link.symlink_to(final.name, target_is_directory=True)
+        os.replace(tmp_link, link)
+    except OSError:  # no symlinks here: a text file naming the folder
+        tmp_link.unlink(missing_ok=True)
+        write_text_atomic(out_root / "latest.txt", final.name + "\n")

@@ -1,0 +1,139 @@
+"""Ctrl-C and SIGTERM as exceptions that unwind a command (and clean up) wherever they land, held back where files
+must land together, and the progress bar that is also where a swallowed interrupt is raised again."""
+
+from __future__ import annotations
+
+import signal
+import sys
+import threading
+import time
+from contextlib import contextmanager
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that it unwinds (and cleans up) like Ctrl-C."""
+
+
+#: The signal this command received (Ctrl-C's SIGINT or SIGTERM), if any: one that lands inside an import of a
+#: compiled module, or inside MuJoCo's or Basilisk's call of ours, reaches us as that module's error
+#: ("ImportError: initialization failed", "Python exception raised"), which is then an interrupt all the same.
+SIGNALLED: list = []
+#: An interrupt raised inside an object's ``__del__`` is printed as "Exception ignored" and lost; it is raised once
+#: more this long after the signal, wherever the work is then (the clean-up steps survive a second interrupt).
+REPEAT_INTERRUPT = 0.5
+
+
+def _on_sigterm(signum, frame):
+    _signalled(signum)
+    raise Terminated()
+
+
+def _on_sigint(signum, frame):
+    _signalled(signum)
+    raise KeyboardInterrupt()
+
+
+def _signalled(signum) -> None:
+    SIGNALLED.append(signum)
+    if len(SIGNALLED) == 1 and hasattr(signal, "setitimer"):
+        signal.setitimer(signal.ITIMER_REAL, REPEAT_INTERRUPT)
+
+
+def _unraisable(hook):
+    """``sys.unraisablehook`` for the length of a command: an interrupt that lands in an object's ``__del__`` or in
+    a callback from compiled code (llvmlite's object cache, while numba loads) cannot be raised there; it is not
+    printed as "Exception ignored" with its traceback, as it is raised again where the work goes on (see
+    :data:`REPEAT_INTERRUPT`). Anything else goes to ``hook``."""
+    def on_unraisable(unraisable):
+        if isinstance(unraisable.exc_value, KeyboardInterrupt) and SIGNALLED:
+            return
+        hook(unraisable)
+    return on_unraisable
+
+
+def _on_alarm(signum, frame):
+    # an interrupt already on its way out (its clean-up, its message) was not swallowed: raising a second one
+    # there would escape the handler that says "interrupted" and end the process by the signal (exit -2)
+    if not isinstance(sys.exc_info()[1], KeyboardInterrupt):
+        raise_if_signalled()
+
+
+def raise_if_signalled() -> None:
+    """Raise the interrupt again where the work reports progress: one raised inside an object's ``__del__`` (a
+    compiled module's, while this process imports or compiles) is printed as "Exception ignored" and the work
+    goes on, as if there had been no Ctrl-C."""
+    if SIGNALLED:
+        raise as_interrupt()
+
+
+def as_interrupt() -> KeyboardInterrupt:
+    """The interrupt the received signal stands for (:class:`Terminated` for SIGTERM)."""
+    return Terminated() if SIGNALLED and SIGNALLED[0] == signal.SIGTERM else KeyboardInterrupt()
+
+
+def stop_repeating() -> None:
+    """No further repeat of an interrupt (it is being reported)."""
+    if hasattr(signal, "setitimer"):
+        signal.setitimer(signal.ITIMER_REAL, 0)
+
+
+@contextmanager
+def signals_as_interrupts():
+    """For the length of a command: SIGINT and SIGTERM raise :class:`KeyboardInterrupt` / :class:`Terminated` in
+    the main thread (a signal before is not ours), repeated once if swallowed; interrupts in ``__del__`` are not
+    printed. Everything is restored as the block ends."""
+    previous = None
+    SIGNALLED.clear()  # a command run again in the same process (the tests) starts uninterrupted
+    if threading.current_thread() is threading.main_thread():
+        previous = [(sig, signal.signal(sig, handler)) for sig, handler in
+                    ((signal.SIGTERM, _on_sigterm), (signal.SIGINT, _on_sigint),
+                     *(((signal.SIGALRM, _on_alarm),) if hasattr(signal, "SIGALRM") else ()))]
+    previous_hook, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
+    try:
+        yield
+    finally:
+        sys.unraisablehook = previous_hook
+        if previous is not None:
+            stop_repeating()
+            for sig, handler in previous:
+                signal.signal(sig, handler)
+
+
+@contextmanager
+def signals_deferred():
+    """Ctrl-C and SIGTERM held back for the length of a block (delivered as it ends): files written in it land all
+    or none of them, where each alone is atomic (a league's JSON without its Markdown once said "no report was
+    written"). Only in the main thread; elsewhere a plain block."""
+    held = {signal.SIGINT, signal.SIGTERM}
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
+
+
+class Progress:
+    """``progress(done, total, label)``: a bar on a terminal, nothing otherwise; a swallowed interrupt is raised
+    again here."""
+
+    def __init__(self, enabled: bool | None = None, stream=None):
+        self.stream = sys.stderr if stream is None else stream  # the stream of now, not of import time (pytest's capsys)
+        self.enabled = self.stream.isatty() if enabled is None else enabled
+        self.start = time.perf_counter()
+
+    def __call__(self, done: int, total: int, label: str = ""):
+        raise_if_signalled()
+        if not self.enabled:
+            return
+        width = 30
+        filled = int(width * done / max(total, 1))
+        elapsed = time.perf_counter() - self.start
+        eta = f" ETA {elapsed * (total - done) / done:4.0f}s" if 0 < done < total else ""
+        line = f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} {elapsed:5.1f}s{eta} {label}"
+        self.stream.write(line[:120].ljust(120))
+        self.stream.flush()
+        if done >= total:
+            self.stream.write("\n")
