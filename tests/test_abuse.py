@@ -472,7 +472,8 @@ def test_an_interrupt_inside_a_string_exec_still_exits_130(tmp_path):
     report). The command here raises it there deterministically."""
     (tmp_path / "interrupted_in_exec.py").write_text(
         "import sys\nfrom xcheck import cli\n"
-        "cli._cmd_converge = lambda args: exec('raise KeyboardInterrupt', {})\n"
+        "import xcheck.commands.studies as studies\n"
+        "studies.converge = lambda **kwargs: exec('raise KeyboardInterrupt', {})\n"
         "sys.exit(cli.main(sys.argv[1:]))\n")
     proc = subprocess.run([sys.executable, "-m", "interrupted_in_exec", "converge", "gyroscope-nonsingular"],
                           cwd=tmp_path, capture_output=True, text=True, timeout=60)
@@ -782,12 +783,12 @@ def test_passive_forces_are_refused(tmp_path, capsys, joint, extra, match):
 
 
 def test_a_bug_is_one_line_asking_to_report_it(capsys, monkeypatch):
-    import xcheck.cli as cli
+    import xcheck.commands.studies as studies
 
-    def broken(args):
+    def broken(**kwargs):
         raise RuntimeError("something impossible")
 
-    monkeypatch.setattr(cli, "_cmd_list", broken)
+    monkeypatch.setattr(studies, "list_all", broken)
     code = main(["list"])
     err = capsys.readouterr().err
     assert code == 3 and "Traceback" not in err

@@ -409,12 +409,13 @@ def test_a_signal_that_a_module_turned_into_its_own_error_is_still_an_interrupt(
     from xcheck import cli
     from xcheck.base import interrupts
 
-    def command(args):
+    def command(*, ctx):
         interrupts.SIGNALLED.append(signum)
         raise ImportError("initialization failed")
 
     monkeypatch.setattr(interrupts, "SIGNALLED", [])
-    assert cli._run(argparse.Namespace(func=command)) == code
+    monkeypatch.setattr("xcheck.commands.studies.list_all", command)
+    assert cli._run(argparse.Namespace(command="list")) == code
     err = capsys.readouterr().err
     assert f"xcheck: {word}; no report was written" in err and "internal error" not in err
 

@@ -194,7 +194,7 @@ def test_the_layer_check_sees_an_upward_arrow():
     assert upward == {("rotations", "study")}
 
 
-def test_every_refusal_is_a_user_error_and_exits_2_by_its_type(capsys):
+def test_every_refusal_is_a_user_error_and_exits_2_by_its_type(capsys, monkeypatch):
     """Issue 38: one base class, not a table of module names: each refusal class of the package derives from
     base.errors.UserError, and the command line exits 2 on any subclass, even one it has never heard of."""
     import argparse
@@ -212,8 +212,9 @@ def test_every_refusal_is_a_user_error_and_exits_2_by_its_type(capsys):
     class NewRefusal(UserError):
         pass
 
-    def command(args):
+    def command(*, ctx):
         raise NewRefusal("thing.toml: [new] key: expected a number")
 
-    assert cli._run(argparse.Namespace(func=command)) == 2
+    monkeypatch.setattr("xcheck.commands.studies.list_all", command)
+    assert cli._run(argparse.Namespace(command="list")) == 2
     assert capsys.readouterr().err == "xcheck: error: thing.toml: [new] key: expected a number\n"

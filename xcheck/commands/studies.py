@@ -1,0 +1,174 @@
+"""``xcheck list``, ``xcheck converge`` (one convergence study) and ``xcheck run`` (one trajectory)."""
+
+from __future__ import annotations
+
+import math
+import time
+from contextlib import nullcontext
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..base.errors import UsageError
+from . import Context, Outcome
+from .arguments import clock_note, methods_arg, steps_arg
+
+#: The formats ``run --plot`` writes, by file ending.
+PLOT_SUFFIXES = (".png", ".svg", ".pdf")
+
+
+def list_all(*, ctx: Context) -> Outcome:
+    """The bundled scenarios and sweeps (each described, or why it cannot be read) and every method."""
+    from ..runners import RUNNERS
+    from ..scenario import ScenarioError, bundled_scenarios, load_scenario
+    from ..sweep.spec import bundled_sweeps, load_sweep
+
+    for title, files, load in (("Bundled scenarios (models/scenarios/):", bundled_scenarios(), load_scenario),
+                               ("\nBundled sweeps (models/sweeps/; xcheck sweep NAME):", bundled_sweeps(), load_sweep)):
+        ctx.say(title)
+        for name, path in files.items():
+            try:
+                desc = load(path).description
+            except ScenarioError as exc:
+                desc = f"(invalid: {exc})"
+            ctx.say(f"  {name:28s} {desc}")
+    ctx.say("\nMethods:")
+    for name, r in RUNNERS.items():
+        order = r.expected_order if r.expected_order is not None else "adaptive"
+        ctx.say(f"  {name:22s} order {order!s:9s} {r.summary}")
+    return Outcome("PASSED")
+
+
+def study_lines(st) -> list[str]:
+    """A study as the terminal shows it: the verdict, one line per method, each failed or undecided check."""
+    from ..study.checks import check_summary
+
+    lines = [f"\n{st.name}: {st.outcome} (reference: {st.reference_used})"]
+    if st.reference_check:
+        lines.append(f"  reference: {st.reference_check['text']}")
+    lines.append(f"  {'method':22s} {'expected':>8s} {'observed':>8s} {'finest error':>13s}  status")
+    for name, m in st.methods.items():
+        obs = f"{m.observed_order:.2f}" if m.observed_order is not None else "—"
+        exp = m.expected_order if m.expected_order is not None else "adaptive"
+        err_text = "—" if m.finest is None else format(m.finest.attitude_error, ".2e")
+        lines.append(f"  {name:22s} {exp!s:>8s} {obs:>8s} {err_text:>13s}  {m.status_text}")
+    for c in st.checks:
+        if not c.passed:
+            summary = check_summary(c, st.scenario.checks)
+            detail = f"; {c.note}" if c.note and c.note != summary else ""
+            lines.append(f"  {'INCONCLUSIVE' if c.inconclusive else 'FAILED'} {c.name}: {summary}{detail}")
+    lines.extend(f"  INCONCLUSIVE: {why}" for why in st.inconclusive)
+    return lines
+
+
+@dataclass
+class StudyOutcome(Outcome):
+    study: object  # xcheck.study.StudyResult
+
+
+def converge(*, scenario: str, methods: str | None, steps: str | None, quick: bool, json: str | None,
+             out: str | None, workers: int | None, ctx: Context) -> StudyOutcome:
+    """One convergence study of ``scenario``. A study is quicker in this process than shared with workers, which
+    each pay 1-1.5 s of imports and compiled-code loading before their first run, except for the methods of an
+    engine whose import is costly (Basilisk's: 0.5 s more, and the longest runs). With one installed (and not left
+    out by ``methods``) one worker starts before anything is imported here, imports it, and runs its methods while
+    this process runs the rest. ``workers`` N: that many processes for the whole study; 1: this process alone."""
+    from ..base.pool import worker_pool
+    from ..engines import ENGINES, available
+    from ..report.build import worker_modules
+
+    costly = any(e.to_workers and available(e.name) and (methods is None or e.name in methods)
+                 for e in ENGINES.values())
+    size = workers - 1 if workers and workers > 1 else (1 if workers is None and costly else 0)
+    with worker_pool(size, warm=worker_modules(figures=False)) if size else nullcontext() as pool:
+        return _converge(scenario, methods, steps, quick, json, out, pool, ctx)
+
+
+def _converge(name, methods, steps, quick, json, out, pool, ctx) -> StudyOutcome:
+    from ..base.files import check_output_dir, check_output_file, write_json_atomic
+    from ..runners import RUNNERS
+    from ..scenario import resolve_scenario
+    from ..study import default_methods, run_study
+
+    scenario = resolve_scenario(name)
+    methods = methods_arg(methods) if methods is not None else None
+    steps = steps_arg(steps, scenario) if steps is not None else None
+    for m in (methods or default_methods(scenario)) if steps else ():  # an unknown name: run_study's refusal
+        for dt in steps if m in RUNNERS else ():
+            clock_note(RUNNERS[m], dt, "--steps")
+    if json:
+        check_output_file(json, "--json", suffixes=(".json",))
+    if out:
+        check_output_dir(out, "--out")
+    t0 = time.perf_counter()
+    # a run's wall time is repeated for a meaningful figure only where one is written (the table shows none)
+    st = run_study(scenario, methods=methods, steps=steps, quick=quick, workers=1 if pool is None else None,
+                   progress=ctx.progress(), timing=bool(json or out), pool=pool, here=pool is not None)
+    for line in study_lines(st):
+        ctx.say(line)
+    if json:
+        write_json_atomic(json, st.data)
+    if out:
+        from ..report.plots import scenario_figures
+
+        files = scenario_figures(st.data, st.series, out)
+        ctx.say(f"  figures: {', '.join(str(Path(out) / f) for f, _ in files)}")
+    ctx.say(f"wall time {time.perf_counter() - t0:.1f} s")
+    return StudyOutcome(st.outcome, st)
+
+
+@dataclass
+class RunOutcome(Outcome):
+    run: object  # xcheck.study.single.SingleRun
+
+
+def run_one(*, scenario: str, method: str, dt: float, rtol: float | None, csv: str | None, plot: str | None,
+            ctx: Context) -> RunOutcome:
+    """One trajectory of ``method`` at the step ``dt`` against the scenario's reference; FAILED when the run did
+    not end (non-finite, singular) or has no reference."""
+    from ..base.files import check_output_file, write_trajectory_csv
+    from ..runners import RUNNERS, unknown_method
+    from ..scenario import resolve_scenario
+    from ..study.single import run_once
+    from ..trajectory import check_step
+
+    sc = resolve_scenario(scenario)
+    if method not in RUNNERS:
+        raise UsageError(f"--method: {unknown_method(method)}")
+    runner = RUNNERS[method]
+    if rtol is not None and not runner.adaptive:
+        raise UsageError(f"--rtol: {method} is a fixed-step method; a tolerance applies to an adaptive one "
+                         f"({', '.join(n for n, r in RUNNERS.items() if r.adaptive)})")
+    if rtol is not None and not (math.isfinite(rtol) and 0 < rtol < 1):
+        raise UsageError(f"--rtol: expected a relative tolerance in (0, 1), got {rtol:g}")
+    try:
+        check_step(dt, sc.duration, runs_at_once=1)
+    except ValueError as exc:
+        raise UsageError(f"--dt: {exc} (scenario {sc.name}, duration {sc.duration:g} s)") from None
+    note = clock_note(runner, dt, "--dt")
+    if csv:
+        check_output_file(csv, "--csv", suffixes=(".csv",))
+    if plot:
+        check_output_file(plot, "--plot", suffixes=PLOT_SUFFIXES)
+    if note:
+        ctx.say(f"note: {note}")
+    one = run_once(sc, runner, dt, rtol)
+    traj, err = one.traj, one.error
+    ctx.say(f"{sc.name} / {method} at dt = {dt:g} s: {traj.status} ({len(traj.t) - 1} steps, {one.wall_time:.3g} s)")
+    if traj.message:
+        ctx.say(f"  {traj.message}")
+    if one.no_reference:
+        ctx.say(f"  no reference: {one.no_reference}")
+    elif one.measured_at_end:
+        ctx.say(f"  attitude error at t = {traj.t[-1]:g} s: {err[-1]:.3e} rad (against the {sc.reference} "
+                f"reference); max over the grid {one.max_error:.3e} rad")
+        ctx.say(f"  body-rate error at the end: {one.rate_error:.3e} rad/s")
+    if csv:
+        write_trajectory_csv(csv, f"{sc.name} / {method}, dt = {dt:g} s, status {traj.status}",
+                             traj.t, traj.q, traj.omega, err, traj.extras.get("euler"))
+        ctx.say(f"  trajectory: {csv}")
+    if plot:
+        from ..report.plots import run_figure
+
+        run_figure(plot, f"{sc.name} / {method}, dt = {dt:g} s", traj, err)
+        ctx.say(f"  plot: {plot}")
+    return RunOutcome("PASSED" if one.ok else "FAILED", one)
