@@ -22,6 +22,7 @@ from hypothesis import strategies as st
 from test_cli_fuzz import to_toml  # noqa: E402  (the same TOML writer)
 
 from xcheck.cli import main
+from xcheck.commands.sweeps import run_sweep
 from xcheck.paths import BUNDLED_MODELS
 from xcheck.sweep import spec as S
 
@@ -270,7 +271,7 @@ def interrupted_log(playground):
         raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        R.run_sweep(S.load_sweep(folder / "small.toml"), folder / "out", jobs=1, progress=interrupt,
+        run_sweep(S.load_sweep(folder / "small.toml"), folder / "out", jobs=1, progress=interrupt,
                     say=lambda s: None)
     return (folder / "out" / "small" / R.PARTIAL_LOG).read_bytes()
 

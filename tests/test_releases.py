@@ -10,7 +10,7 @@ import sys
 import pytest
 
 from xcheck.history.matrix import installed_mujoco
-from xcheck.league.findings import RK4_FOURTH_ORDER_FROM, release_key, release_note
+from xcheck.engines.findings import RK4_FOURTH_ORDER_FROM, release_key, release_note
 from xcheck.league.releases import RELEASES, bisect
 
 OLD = "3.2.7"

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from xcheck.cli import main
+from xcheck.commands.sweeps import run_sweep
 from xcheck.models import load_body
 from xcheck.paths import BUNDLED_MODELS
 from xcheck.scenario import resolve_scenario
@@ -139,7 +140,7 @@ def test_resume_after_an_interruption_does_not_redo_finished_cells(tmp_path, mon
         raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        R.run_sweep(spec, tmp_path / "out", jobs=1, progress=interrupt, say=lambda s: None)
+        run_sweep(spec, tmp_path / "out", jobs=1, progress=interrupt, say=lambda s: None)
     root = tmp_path / "out" / "small"
     assert not (root / "latest").exists() and not list(root.glob("2*"))  # no folder, complete or not
     log = root / R.PARTIAL_LOG
@@ -149,16 +150,16 @@ def test_resume_after_an_interruption_does_not_redo_finished_cells(tmp_path, mon
         f.write('{"id": "cut sho')  # a line cut short by a kill: dropped on reading
     calls.clear()
     notes = []
-    done = R.run_sweep(spec, tmp_path / "out", jobs=1, resume=True, say=notes.append)
+    done = run_sweep(spec, tmp_path / "out", jobs=1, resume=True, say=notes.append)
     ran = [cid for chunk in calls for cid in chunk]
     assert sorted(ran) == sorted(c["id"] for c in spec.cells if c["id"] not in first)
     assert done.reused == len(first) and done.ran == 6 - len(first)
     assert any("already done" in n for n in notes) and not log.exists()
-    fresh = R.run_sweep(spec, tmp_path / "fresh", jobs=1, say=lambda s: None)
+    fresh = run_sweep(spec, tmp_path / "fresh", jobs=1, say=lambda s: None)
     assert _untimed(_rows(done.folder)) == _untimed(_rows(fresh.folder))
     # --resume of a complete sweep reads its latest folder and runs nothing
     calls.clear()
-    again = R.run_sweep(spec, tmp_path / "out", jobs=1, resume=True, say=lambda s: None)
+    again = run_sweep(spec, tmp_path / "out", jobs=1, resume=True, say=lambda s: None)
     assert calls == [] and again.reused == 6
 
 
@@ -172,7 +173,7 @@ def _interrupted_log(tmp_path_factory):
         raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        R.run_sweep(S.load_sweep(path), tmp / "out", jobs=1, progress=interrupt, say=lambda s: None)
+        run_sweep(S.load_sweep(path), tmp / "out", jobs=1, progress=interrupt, say=lambda s: None)
     return (tmp / "out" / "small" / R.PARTIAL_LOG).read_bytes()
 
 
@@ -244,7 +245,7 @@ def test_resume_refuses_a_log_of_other_methods(tmp_path):
     root.mkdir(parents=True)
     (root / R.PARTIAL_LOG).write_text(json.dumps({"schema": R.LOG_SCHEMA, "fingerprint": "0" * 16}) + "\n")
     with pytest.raises(S.SweepError, match="another base scenario.*without --resume"):
-        R.run_sweep(spec, tmp_path / "out", jobs=1, resume=True, say=lambda s: None)
+        run_sweep(spec, tmp_path / "out", jobs=1, resume=True, say=lambda s: None)
 
 
 def test_cells_are_applied_to_the_base(tmp_path):

@@ -74,7 +74,7 @@ class Runner:
     #: its engine is opt-in (:attr:`xcheck.engines.Engine.opt_in`): the method runs only where it is asked for
     opt_in: bool = False
     #: ``() -> note or None``: a known finding that the method's failed order check names (an engine release's RK4
-    #: of second order, :func:`xcheck.league.findings.release_note`), read for the version installed; None: none
+    #: of second order, :func:`xcheck.engines.findings.release_note`), read for the version installed; None: none
     finding: Callable[[], str | None] | None = None
 
     def run_at(self, ctx: RunContext, dt: float, rtol: float | None = None) -> Trajectory:
@@ -92,8 +92,8 @@ class Runner:
 
 def _release_finding(package: str, engine: str):
     def finding():
-        from .league.findings import release_note
-        from .versions import package_version
+        from .engines.findings import release_note
+        from .base.packages import package_version
 
         return release_note(package_version(package), engine)
     return finding

@@ -4,19 +4,9 @@ from __future__ import annotations
 
 import os
 import platform
-from importlib import metadata
 
 from . import __version__
-
-NOT_INSTALLED = "not installed"
-
-
-def package_version(package: str) -> str:
-    """The installed distribution's version, or :data:`NOT_INSTALLED`."""
-    try:
-        return metadata.version(package)
-    except metadata.PackageNotFoundError:
-        return NOT_INSTALLED
+from .base.packages import NOT_INSTALLED, package_version  # noqa: F401 (NOT_INSTALLED: its home before issue 38)
 
 
 #: What every result depends on besides xcheck itself and the engines.

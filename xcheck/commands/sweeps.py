@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -11,8 +12,43 @@ from . import Context, Outcome
 
 
 @dataclass
+class SweepRun:
+    """What :func:`run_sweep` did: the folder written, every cell's record (spec order), how many cells ran now and
+    how many came from an earlier run (``--resume``), and the timings (:class:`xcheck.sweep.run.Cells`)."""
+
+    folder: Path
+    records: list
+    ran: int
+    reused: int
+    wall_time: float
+    timings: dict
+
+
+def run_sweep(spec, out_root, *, jobs: int = 1, resume: bool = False, kind: str = "local",
+              scheduler: str | None = None, progress=None, say=print) -> SweepRun:
+    """Every cell of ``spec`` not yet finished (:func:`xcheck.sweep.run.run_cells`), then the sweep's folder under
+    ``out_root/<spec stem>/`` (:func:`xcheck.report.sweep.write_sweep`), the cells' log removed once it is written.
+    Another run writing into the same folder: :class:`xcheck.base.files.BusyError`, before any work."""
+    from ..base.files import held_alone
+    from ..report.sweep import write_sweep
+    from ..sweep.run import run_cells
+
+    t_start = time.perf_counter()
+    root = Path(out_root) / spec.path.stem
+    root.mkdir(parents=True, exist_ok=True)
+    with held_alone(root, "--out"):  # one run at a time into a sweep's folder: its live log is no interrupted run's
+        cells = run_cells(spec, root, jobs=jobs, resume=resume, kind=kind, scheduler=scheduler, progress=progress,
+                          say=say)
+        folder = write_sweep(spec, cells.records, root, methods=cells.methods, timings=cells.timings, ran=cells.ran,
+                             reused=cells.reused, wall_time=time.perf_counter() - t_start, log=cells.log)
+        cells.log.unlink(missing_ok=True)
+    return SweepRun(folder=folder, records=cells.records, ran=cells.ran, reused=cells.reused,
+                    wall_time=time.perf_counter() - t_start, timings=cells.timings)
+
+
+@dataclass
 class SweepOutcome(Outcome):
-    sweep: object  # xcheck.sweep.run.SweepOutcome
+    sweep: SweepRun
 
 
 def sweep(*, spec: str, out: str, jobs: int | None, resume: bool, max_cells: int | None, executor: str,
@@ -20,7 +56,7 @@ def sweep(*, spec: str, out: str, jobs: int | None, resume: bool, max_cells: int
     """Every cell of the sweep ``spec`` not yet done, into ``out/<spec name>/<stamp>/``."""
     from ..base.files import check_output_dir
     from ..results import outcome_of
-    from ..sweep.run import PARTIAL_LOG, run_sweep
+    from ..sweep.run import PARTIAL_LOG
     from ..sweep.spec import MAX_CELLS, resolve_sweep
 
     if jobs is not None and jobs < 1:

@@ -187,7 +187,8 @@ def mjx(*, scenarios: list[str], out: str | None, json: str | None, methods: str
     if json:
         write_json_atomic(json, {"schema": "xcheck.mjx/1", "rows": rows, "bench": bench})
     if md is not None:
-        from ..versions import package_version, versions
+        from ..base.packages import package_version
+        from ..versions import versions
 
         v = versions()
         command = ("xcheck mjx" + (" " + " ".join(scenarios) if scenarios else "")

@@ -443,6 +443,6 @@ def _mtb(torque, sc, sim, b, ns: int, n: int):
 
 @functools.lru_cache(maxsize=1)
 def _version() -> str | None:
-    from ..versions import package_version
+    from ..base.packages import package_version
 
     return package_version("bsk")

@@ -118,7 +118,7 @@ def simulate(model, *, integrator: str, q0, omega0, dt: float, duration: float, 
     JAX versions in ``extras``."""
     import mujoco
 
-    from ..versions import package_version
+    from ..base.packages import package_version
     from .mujoco import _first_bad_row, initial_data, run_trajectory
 
     if integrator not in INTEGRATORS:

@@ -30,7 +30,7 @@ from pathlib import Path
 
 from ..base.errors import UserError
 from ..base.files import alive
-from ..versions import NOT_INSTALLED, package_version
+from ..base.packages import NOT_INSTALLED, package_version
 from .store import utc_now
 
 #: What an environment takes from the running one, pinned (MuJoCo may not pull other versions in).
@@ -44,8 +44,8 @@ class MatrixError(UserError):
 
 def parse_versions(text: str) -> list[str]:
     """``"3.2.7, 4.0.0"`` -> ``["3.2.7", "4.0.0"]``; ``"releases"``: the newest patch of every minor release from 3.2
-    to 4.0 (:data:`xcheck.league.findings.RELEASES`); ValueError naming ``--mujoco`` for anything else."""
-    from ..league.findings import RELEASES, release_key
+    to 4.0 (:data:`xcheck.engines.findings.RELEASES`); ValueError naming ``--mujoco`` for anything else."""
+    from ..engines.findings import RELEASES, release_key
 
     if text.strip() == "releases":
         return list(RELEASES)

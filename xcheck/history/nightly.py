@@ -9,7 +9,6 @@ nights stays in the series: catching what it changed is the point.
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import socket
@@ -266,7 +265,7 @@ def run_nightly(scenarios, out, *, location, baseline: int | None = None, last: 
     runs = [dict(results=vr.results, started=v_started, finished=v_finished, git_commit=commit, host=host,
                  report=str(vr.folder), environment=f"mujoco=={vr.version}")
             for vr, v_started, v_finished in matrix if vr.results is not None]
-    runs.append(dict(results=json.loads((report.folder / "results.json").read_text()), started=began,
+    runs.append(dict(results=report.document, started=began,
                      finished=finished, git_commit=commit, host=host, report=str(report.folder.resolve()),
                      throughput=rows))
     try:

@@ -22,7 +22,7 @@ import tempfile
 from datetime import datetime, timezone
 from pathlib import Path
 
-from .findings import RELEASES, RK4_FOURTH_ORDER_FROM, release_key, release_note
+from ..engines.findings import RELEASES, RK4_FOURTH_ORDER_FROM, release_key, release_note
 
 __all__ = ["RELEASES", "RK4_FOURTH_ORDER_FROM", "release_key", "release_note", "probe", "run_probe", "bisect",
            "markdown"]

@@ -49,12 +49,13 @@ def resolve_scenarios(names) -> list:
 class ReportOutcome:
     """What :func:`build_report` did: the studies (in the scenarios' order), the report folder, whether the
     determination studies and seed 002's tables passed (True when no scenario has one), and the phases'
-    ``(name, time.perf_counter())`` marks (``--timings``)."""
+    ``(name, time.perf_counter())`` marks (``--timings``), and the results document written (``results.json``)."""
 
     studies: list
     folder: Path
     determination_passed: bool = True
     marks: list = field(default_factory=list)
+    document: dict = field(default_factory=dict)  # the report's results.json, as written
 
     @property
     def outcome(self) -> str:
@@ -91,6 +92,7 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
 
     t0 = time.perf_counter()
     marks = [("start", t0 if started is None else started), ("pool started", t0)]
+    document: dict = {}  # the results document, filled as it is written
     # a pool of one worker fewer (this process runs studies too: each process pays 1-3 s of imports and
     # compiled-code loading), started first so that the workers import numpy, numba, MuJoCo, matplotlib (and
     # Basilisk) while this process imports its own
@@ -123,11 +125,11 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
                               wall_time=time.perf_counter() - t0, quick=quick, pool=pool,
                               figures=figures.futures if figures else None,
                               trajectories=trajectories, marks=marks,
-                              sections=_all_sections([determined, league_sec], sections))
+                              sections=_all_sections([determined, league_sec], sections), document=document)
         if written is not None:
             written(folder)
     marks.append(("workers stopped", time.perf_counter()))
-    return ReportOutcome(studies=studies, folder=folder, marks=marks,
+    return ReportOutcome(studies=studies, folder=folder, marks=marks, document=document,
                          determination_passed=(determined is None or determined.passed)
                          and (league_sec is None or league_sec.passed))
 

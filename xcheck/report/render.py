@@ -86,7 +86,7 @@ def with_sections(results: dict, sections) -> dict:
 
 def write_report(studies, out_root, *, stamp: str | None = None, throughput=None, wall_time=None,
                  quick=False, pool=None, figures: dict | None = None, trajectories: bool = False,
-                 marks: list | None = None, sections=()) -> Path:
+                 marks: list | None = None, sections=(), document: dict | None = None) -> Path:
     """Write the report of ``studies`` (list of StudyResult) under ``out_root/<stamp>/`` atomically and
     point ``out_root/latest`` at it. Returns the report folder.
 
@@ -96,7 +96,8 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
     (``trajectories/<scenario>/<method>.csv``, ~4 MB a scenario). ``marks``: a list to which ``(phase,
     time.perf_counter())`` pairs are appended (``xcheck report --timings``). ``sections``: more of the report
     (:class:`Section`), or a function that makes them from the finished, read-only results document (``xcheck
-    nightly``'s History compares it with the history).
+    nightly``'s History compares it with the history). ``document``: a dict that receives the results document
+    written (``results.json``), for a caller that goes on with it (the nightly records it).
 
     The report is written into a hidden ``.incomplete-<stamp>-<host>-<pid>`` folder and renamed into place
     when complete: on any error or interrupt the workers are stopped first and the folder removed; a
@@ -132,6 +133,8 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
             for file, _, png in section.figures:
                 write_bytes_atomic(tmp / "plots" / file, png)
         write_json_atomic(tmp / "results.json", results)
+        if document is not None:
+            document.update(results)
         summary = next((sec.summary for sec in sections if sec.summary), None)
         document = report_document(studies, results, captions, extra=[b for sec in sections for b in sec.blocks],
                                    summary=summary)

@@ -32,7 +32,7 @@ import numpy as np
 from ..runners import RUNNERS
 from .spec import SweepError, SweepSpec, apply_cell, cell_id
 
-__all__ = ["SweepLog", "plan_chunks", "run_chunk", "run_sweep", "sweep_methods", "fingerprint", "executor", "CHUNK",
+__all__ = ["SweepLog", "plan_chunks", "run_chunk", "run_cells", "sweep_methods", "fingerprint", "executor", "CHUNK",
            "LOG_SCHEMA"]
 
 LOG_SCHEMA = "xcheck.sweep-log/1"
@@ -512,44 +512,31 @@ def _is_a_scheduler(address: str) -> None:
 # the sweep
 # ------------------------------------------------------------------------------------------------------
 @dataclass
-class SweepOutcome:
-    """What :func:`run_sweep` did: the folder written, every cell's record (spec order), how many cells ran
-    now and how many came from an earlier run (``--resume``), and the timings (``timings``: executor start
-    [s], per-cell medians [s] of context (model load, torque), reference and compute, and cells per second)."""
+class Cells:
+    """What :func:`run_cells` did: every cell's record (spec order), how many cells ran now and how many came from
+    an earlier run (``--resume``), the timings (``timings``: executor start [s], per-cell medians [s] of context
+    (model load, torque), reference and compute, and cells per second), the methods and the log (removed by the
+    caller once the sweep's folder is written: :func:`xcheck.commands.sweeps.run_sweep`)."""
 
-    folder: Path
     records: list
     ran: int
     reused: int
-    wall_time: float
     timings: dict
+    methods: tuple
+    log: Path
 
 
 #: The log of an unfinished sweep, in the sweep's folder (``<out>/<spec stem>/``).
 PARTIAL_LOG = ".cells-partial.jsonl"
 
 
-def run_sweep(spec: SweepSpec, out_root, *, jobs: int = 1, resume: bool = False, kind: str = "local",
-              scheduler: str | None = None, progress=None, say=print) -> SweepOutcome:
-    """Run every cell of ``spec`` not yet finished and write the sweep's folder under ``out_root/<spec stem>/``
-    (:func:`xcheck.report.sweep.write_sweep`). ``resume``: keep the cells of an interrupted run (its log), or
-    of the latest complete one (``latest/cells.jsonl``: a spec given more values runs only the new cells).
-    ``progress(done, total, label)`` as chunks finish; ``say(text)`` for notes. Another run writing into the same
-    folder: :class:`xcheck.base.files.BusyError`, before any work."""
-    from ..base.files import held_alone
-
+def run_cells(spec: SweepSpec, root: Path, *, jobs: int = 1, resume: bool = False, kind: str = "local",
+              scheduler: str | None = None, progress=None, say=print) -> Cells:
+    """Run every cell of ``spec`` not yet finished, each logged in ``root/`` (:data:`PARTIAL_LOG`) as its chunk
+    ends. ``resume``: keep the cells of an interrupted run (its log), or of the latest complete one
+    (``latest/cells.jsonl``: a spec given more values runs only the new cells). ``progress(done, total, label)`` as
+    chunks finish; ``say(text)`` for notes. The caller holds ``root`` (one run at a time)."""
     t_start = time.perf_counter()
-    root = Path(out_root) / spec.path.stem
-    root.mkdir(parents=True, exist_ok=True)
-    with held_alone(root, "--out"):  # one run at a time into a sweep's folder: its live log is no interrupted run's
-        return _run_held(spec, root, t_start, jobs=jobs, resume=resume, kind=kind, scheduler=scheduler,
-                         progress=progress, say=say)
-
-
-def _run_held(spec, root, t_start, *, jobs, resume, kind, scheduler, progress, say) -> SweepOutcome:
-    """:func:`run_sweep`'s work, its folder held."""
-    from ..report.sweep import write_sweep
-
     log = SweepLog(root / PARTIAL_LOG, fingerprint(spec))
     if resume:
         source = next((p for p in (log.path, root / "latest" / "cells.jsonl") if p.is_file()), None)
@@ -586,9 +573,5 @@ def _run_held(spec, root, t_start, *, jobs, resume, kind, scheduler, progress, s
     timings = {"executor_start": t_ready - t_start, "cells_per_second": len(todo) / (t_end - t_ready) if todo else None,
                **{k: float(np.median([r["timings"][k] for r in fresh])) if fresh else None
                   for k in ("context", "reference", "compute")}}
-    records = [log.records[c["id"]] for c in spec.cells]
-    folder = write_sweep(spec, records, root, methods=methods, timings=timings, ran=len(todo), reused=reused,
-                         wall_time=time.perf_counter() - t_start, log=log.path)
-    log.path.unlink(missing_ok=True)
-    return SweepOutcome(folder=folder, records=records, ran=len(todo), reused=reused,
-                        wall_time=time.perf_counter() - t_start, timings=timings)
+    return Cells(records=[log.records[c["id"]] for c in spec.cells], ran=len(todo), reused=reused, timings=timings,
+                 methods=methods, log=log.path)
