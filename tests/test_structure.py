@@ -122,17 +122,19 @@ def test_the_architecture_notes_name_every_module():
     assert not unnamed, f"docs/architecture.md does not name {unnamed}"
 
 
-def test_the_architecture_notes_name_nothing_that_does_not_exist():
-    """Issue 25: a file name (``study.py``) is a file of the project, and a dotted name in backticks that starts with
-    a module of the package (``study.measure_run``, ``xcheck.base.pool.stop_pool``) is an attribute it has."""
+@pytest.mark.parametrize("page", sorted(p.name for p in ARCHITECTURE.parent.glob("*.md")) + ["README.md"])
+def test_the_docs_name_nothing_that_does_not_exist(page):
+    """Issues 25 and 38: a file name (``study.py``) in a page of the docs is a file of the project, and a dotted name
+    in backticks that starts with a module of the package (``study.measure_run``, ``xcheck.base.pool.stop_pool``) is
+    an attribute it has."""
     import importlib
     import re
 
-    doc = ARCHITECTURE.read_text(encoding="utf-8")
     root = PACKAGE.parent
+    doc = (root / page if page == "README.md" else ARCHITECTURE.parent / page).read_text(encoding="utf-8")
     files = {p.name for p in root.rglob("*.py") if ".venv" not in p.parts and "build" not in p.parts}
     gone = sorted(n for n in set(re.findall(r"\b[\w/]+\.py\b", doc)) if n.rsplit("/", 1)[-1] not in files)
-    assert not gone, f"docs/architecture.md names files that do not exist: {gone}"
+    assert not gone, f"{page} names files that do not exist: {gone}"
     modules = {m.removesuffix(".py").removesuffix("/__init__").replace("/", ".") for m in _package_modules()}
     missing = []
     for ref in sorted(set(re.findall(r"`((?:xcheck\.)?[a-z_]+(?:\.[A-Za-z_]\w*)+)", doc))):
@@ -148,7 +150,7 @@ def test_the_architecture_notes_name_nothing_that_does_not_exist():
                         break
                     obj = getattr(obj, name)
                 break
-    assert not missing, f"docs/architecture.md names what the code does not have: {missing}"
+    assert not missing, f"{page} names what the code does not have: {missing}"
 
 
 COLLECT_WITHOUT_MUJOCO = """
