@@ -193,7 +193,9 @@ def test_a_field_added_by_its_declaration_and_registry_entry_alone(tmp_path, mon
     assert s.torque == {"kind": "magnetic", "field": "body-uniform", "H_body": [20.0, -10.0, 15.0]}
     from xcheck.models import load_body
 
-    torque = scenario.build_torque(s, load_body(model))
+    from xcheck.assembly import build_torque
+
+    torque = build_torque(s, load_body(model))
     world = MagneticTorque(torque.dipole, UniformField([20.0, -10.0, 15.0]))
     np.testing.assert_array_equal(torque(0.0, [1.0, 0, 0, 0], np.zeros(3)), world(0.0, [1.0, 0, 0, 0], np.zeros(3)))
     q = rot.quat_normalize([0.3, 0.5, -0.2, 0.7])

@@ -282,3 +282,14 @@ def _euler_pilot(I, q0, omega0, duration: float, dt: float, torque) -> float:
         qs[k + 1] = q
     q_ref, _ = dop853_at(I, q0, omega0, duration, t, torque=torque, rtol=1e-12, atol=1e-14)
     return float(np.max(rot.attitude_error(qs, q_ref)))
+
+
+#: The checks' limits a scenario file may set in its [checks] table, and their defaults.
+DEFAULT_CHECKS = {
+    "order_tolerance": 0.3,  # allowed expected - observed order (a defect lowers the order)
+    "order_excess": 1.0,  # allowed observed - expected order (pre-asymptotic: the next term dominates)
+    "final_error": 1e-9,  # [rad] at the finest step, for methods of order >= 4
+    "invariant_tolerance": 1e-9,  # relative energy / momentum drift at the finest step (torque free)
+    "agreement": 1e-9,  # [rad] MuJoCo RK4 against our best method at the finest step
+    "expected_to_fail": [],  # methods whose checks are expected to fail (e.g. Euler angles at gimbal lock)
+}

@@ -116,7 +116,7 @@ class ScenarioFile(pytest.File):
     def study(self):
         """The scenario's study, run once (the first item to ask runs it; an error is kept and raised again)."""
         if self._study is None:
-            from .scenario import check_scenario_model
+            from .assembly import check_scenario_model
             from .study import run_study
 
             try:

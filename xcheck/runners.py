@@ -34,6 +34,8 @@ class RunContext:
     engine_torque: object = "same"
     #: a gyrostat's wheels' initial speeds relative to the body [rad/s] (None: the model's)
     wheel_speeds: tuple | None = None
+    #: the torque the model exerts itself (a top's gravity, a gyrostat's wheels; part of ``torque``), or None
+    own: object = None
 
     @property
     def applied(self):

@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from . import rotations as rot
-from .base.errors import UserError
-from .defaults import SEED_QUICK_STEPS, SEED_STEPS, derive
+from .base.errors import ScenarioError, UserError  # noqa: F401 (ScenarioError: read from here too)
+from .defaults import DEFAULT_CHECKS, SEED_QUICK_STEPS, SEED_STEPS, derive  # noqa: F401 (DEFAULT_CHECKS: re-exported)
 from .paths import BUNDLED_MODELS, foreign_model, input_problem
 from .torque_terms import TORQUE_KINDS, copy_torque, magnetic_term, torque_terms  # noqa: F401 (re-exported)
 from .trajectory import check_initial_state
@@ -28,15 +28,15 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["Scenario", "ScenarioError", "load_scenario", "check_scenario_model", "scenario_from_model",
-           "model_scenario_text", "is_model_arg", "bundled_scenarios", "build_torque", "torque_parts",
-           "resolve_scenario", "check_name", "check_steps", "fill_derived", "foreign_model", "torque_terms", "magnetic_term", "copy_torque", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
+__all__ = ["Scenario", "ScenarioError", "load_scenario", "scenario_from_model",
+           "model_scenario_text", "is_model_arg", "bundled_scenarios",
+           "resolve_scenario", "check_name", "check_steps", "foreign_model", "torque_terms", "magnetic_term", "copy_torque", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
            "ADAPTIVE_TURN", "default_adaptive_step",
            "SCENARIO_DIR"]
 
 SCENARIO_DIR = BUNDLED_MODELS / "scenarios"
 #: Seed 004 §3.3's ladder, 1/2 ... 1/4096 s, and the quick one, 1/64 ... 1/1024 s: a file's provisional steps until
-#: its body's are derived (:func:`fill_derived`)
+#: its body's are derived (:func:`xcheck.assembly.fill_derived`)
 DEFAULT_STEPS, QUICK_STEPS = SEED_STEPS, SEED_QUICK_STEPS
 #: An adaptive method's study is a ladder of its own relative tolerances (its absolute tolerance keeps the
 #: method's own proportion), not of its step: 1e-3 (scipy's default, seed 001's) to 1e-10 by decades ...
@@ -66,19 +66,6 @@ def default_adaptive_step(omega0, duration: float) -> float:
     while rate * step > ADAPTIVE_TURN and step > 2.0**-10:
         step /= 2
     return step
-
-DEFAULT_CHECKS = {
-    "order_tolerance": 0.3,  # allowed expected - observed order (a defect lowers the order)
-    "order_excess": 1.0,  # allowed observed - expected order (pre-asymptotic: the next term dominates)
-    "final_error": 1e-9,  # [rad] at the finest step, for methods of order >= 4
-    "invariant_tolerance": 1e-9,  # relative energy / momentum drift at the finest step (torque free)
-    "agreement": 1e-9,  # [rad] MuJoCo RK4 against our best method at the finest step
-    "expected_to_fail": [],  # methods whose checks are expected to fail (e.g. Euler angles at gimbal lock)
-}
-
-
-class ScenarioError(UserError):
-    """A scenario file that cannot be used; the message names the file and the key."""
 
 
 #: A scenario name is an identifier: it names files and folders of the report.
@@ -432,80 +419,10 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
                         reference_method=reference_method, reference_dt=reference_dt, checks=checks,
                         determination=determination, wheel_speeds=wheel_speeds, derive=derive)
     if check_model:
+        from .assembly import check_scenario_model
+
         check_scenario_model(scenario)
     return scenario
-
-
-def check_scenario_model(scenario: Scenario) -> None:
-    """The model must load, and the torque must be buildable for the duration: :class:`ScenarioError` naming the
-    file otherwise. Imports MuJoCo (the MJCF is MuJoCo's to read)."""
-    from .models import ModelError, load_body
-
-    try:
-        body = load_body(scenario.model)
-    except ModelError as exc:
-        raise ScenarioError(f"{scenario.path}: model: {exc}") from None
-    if scenario.wheel_speeds is not None and not body.wheels:
-        raise ScenarioError(f"{scenario.path}: [initial] wheel_speeds: the model {scenario.model} has no wheels")
-    try:
-        body.wheel_speeds0(scenario.wheel_speeds)
-    except ValueError as exc:
-        raise ScenarioError(f"{scenario.path}: [initial] {exc}") from None
-    try:
-        torque = build_torque(scenario, body)
-    except ValueError as exc:
-        raise ScenarioError(f"{scenario.path}: [torque]: {exc}") from None
-    if torque is not None:
-        _check_torque_finite(scenario, torque)
-    if scenario.derive:
-        fill_derived(scenario, body, torque)
-    if scenario.reference == "exact" and torque is not None:
-        from .reference import ReferenceFailure, exact_reference, exact_why_not
-
-        inertia = body.inertia_for(scenario.inertia)
-        why = exact_why_not(inertia, torque)
-        if why is None:
-            try:  # Lagrange's top: its closed form must reach this motion (cheap: two times)
-                exact_reference(inertia, scenario.q0, scenario.omega0, [0.0, scenario.duration], torque)
-            except ReferenceFailure as exc:
-                why = str(exc)
-        if why is not None:
-            raise ScenarioError(f"{scenario.path}: [study] reference: 'exact' is the torque-free solution, Lagrange's "
-                                f"top or the axisymmetric gyrostat, and the body is under {torque.describe()}: {why}")
-
-
-def _check_torque_finite(scenario: Scenario, torque) -> None:
-    """Refuse a torque that is not finite at the initial state, at the start, middle and end of the run (terms whose
-    sizes overflow their sum, a drag of an absurd density): no solver can step through it (scipy's DOP853 spun at
-    t = 0 forever on one)."""
-    times = np.array([0.0, 0.5 * scenario.duration, scenario.duration])
-    values = torque.many(times, scenario.q0, scenario.omega0)
-    bad = np.flatnonzero(~np.all(np.isfinite(values), axis=1))
-    if bad.size:
-        i = int(bad[0])
-        raise ScenarioError(f"{scenario.path}: [torque]: {torque.describe()} is {values[i].tolist()} N m at t = "
-                            f"{times[i]:g} s from the initial state: not finite (a term's size overflows); give terms "
-                            "of physical size")
-
-
-def fill_derived(scenario: Scenario, body, torque) -> None:
-    """The steps, quick steps and limits a scenario file left out, derived from its body and motion
-    (:func:`xcheck.defaults.derive`), in place; each stated among its assumptions (the report says them)."""
-    d = derive(body.inertia_for(scenario.inertia), scenario.q0, scenario.omega0, scenario.duration, torque)
-    said = []
-    if "steps" in scenario.derive:
-        scenario.steps = d.steps
-        said.append(f"steps {d.why['steps']}")
-    if "quick_steps" in scenario.derive:
-        scenario.quick_steps = d.quick_steps
-        said.append(f"quick steps {d.why['quick_steps']}")
-    limits = [k for k in ("final_error", "agreement", "invariant_tolerance") if k in scenario.derive]
-    for key in limits:
-        scenario.checks[key] = d.final_error if key != "invariant_tolerance" else d.invariant_tolerance
-    if limits and d.final_error != DEFAULT_CHECKS["final_error"]:
-        said.append(f"checks' limits ({', '.join(limits)}) {d.why['final_error']}")
-    scenario.assumptions = tuple(scenario.assumptions) + tuple(f"derived from the body: {s}" for s in said)
-    scenario.derive = ()
 
 
 #: The keys of the surface forces' [torque] tables (:mod:`xcheck.fields.surface`): key -> (shape, required).
@@ -560,64 +477,6 @@ def _read_torque(tq: _Reader) -> dict:
         tq.fail("kind", f"expected one of {', '.join(repr(k) for k in TORQUE_KINDS)}, got {kind!r}")
     tq.finish()
     return out
-
-
-#: The largest magnetic dipole [A m^2] a scenario or a sweep's cell may give a body.
-MAX_DIPOLE = 1e4
-
-
-def build_torque(scenario: Scenario, body):
-    """The :class:`~xcheck.fields.TorqueModel` on the body of a scenario (None when torque free): the scenario's
-    ``[torque]``, the one the model exerts itself (a top's gravity about its pivot, ``body.own_torque()``), or
-    both, summed (:class:`~xcheck.fields.SumTorque`)."""
-    own, applied = torque_parts(scenario, body)
-    if own is not None and applied is not None:  # a magnetised top in a field: both, summed at every stage
-        from .fields import SumTorque
-
-        return SumTorque([own, applied])
-    return own if own is not None else applied
-
-
-def torque_parts(scenario: Scenario, body):
-    """``(own, applied)``: the torque the model exerts itself (a top's gravity; an engine that simulates the MJCF
-    exerts it on its own) and the scenario's ``[torque]``, each a :class:`~xcheck.fields.TorqueModel` or None."""
-    return body.own_torque(scenario.omega0, scenario.wheel_speeds), _applied_torque(scenario, body)
-
-
-def _applied_torque(scenario: Scenario, body):
-    from . import fields
-
-    terms = [_torque_term(spec, scenario, body) for spec in torque_terms(scenario.torque)]
-    if not terms:
-        return None
-    return terms[0] if len(terms) == 1 else fields.SumTorque(terms)
-
-
-def _torque_term(spec: dict, scenario: Scenario, body):
-    from . import fields
-
-    if spec["kind"] == "constant":
-        return fields.ConstantTorque(spec["torque"])
-    if spec["kind"] == "solar-pressure":
-        return fields.SolarPressureTorque(**{k: v for k, v in spec.items() if k != "kind"})
-    if spec["kind"] == "aerodynamic":
-        return fields.AerodynamicTorque(**{k: v for k, v in spec.items() if k != "kind"})
-    if spec["kind"] == "gravity-gradient":  # the whole mass's inertia, wheels included (a sweep's, where it changes)
-        return fields.GravityGradientTorque(body.mass_inertia(scenario.inertia),
-                                            **{k: v for k, v in spec.items() if k != "kind"})
-    dipole = np.array(spec.get("dipole", body.dipole), dtype=float)
-    if not np.any(dipole):
-        raise ValueError(f"magnetic torque needs a dipole: none in {body.path} (<custom><numeric "
-                         f"name=\"xcheck_dipole\">) and no 'dipole' key")
-    if not np.linalg.norm(dipole) <= MAX_DIPOLE:  # NaN too
-        raise ValueError(f"dipole: |m| = {np.linalg.norm(dipole):.3g} A m^2, beyond the {MAX_DIPOLE:.0e} A m^2 this "
-                         "checks (the largest magnetorquers flown are ~1e3 A m^2; beyond, the reference spends its "
-                         "whole budget on a body spun up past any rigid body's rates)")
-    field = fields.FIELDS[spec["field"]]
-    values = {key: spec[key] for key in field.keys if key in spec}
-    torque = fields.MagneticTorque(dipole, field.from_keys(values, duration=scenario.duration))
-    torque.check_span(scenario.duration)
-    return torque
 
 
 def bundled_scenarios() -> dict[str, Path]:

@@ -10,3 +10,8 @@ class UserError(ValueError):
 
 class UsageError(UserError):
     """Bad command-line input."""
+
+
+class ScenarioError(UserError):
+    """A scenario file that cannot be used; the message names the file and the key (:mod:`xcheck.scenario`, and the
+    checks of its model in :mod:`xcheck.assembly`)."""

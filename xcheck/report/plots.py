@@ -76,41 +76,14 @@ def render_figures(data: dict, series: dict, *, quick: bool = False) -> list[tup
 
 
 def _wheels_stiffness(data, name):
-    """Issue 28: how a gyrostat's wheels stiffen its attitude. The angle by which the direction of the wheels'
-    momentum (body axis) turns away from where it started, in the world, with the wheels as the scenario has them and
-    with them stopped (the same body as one rigid mass), under the scenario's torque: ``lie-rkmk4`` at 1/512 s (its
-    error 1e-12 rad, nothing next to the lines). Nothing for a body without wheels."""
-    from pathlib import Path
-
-    from ..models import ModelError, load_body
-    from ..scenario import Scenario, torque_parts
-
-    try:
-        body = load_body(data["model"])
-    except (ModelError, OSError, KeyError):
+    """Issue 28: how a gyrostat's wheels stiffen its attitude, as the study computed it
+    (:func:`xcheck.assembly.wheels_stiffness`). Nothing for a body without wheels."""
+    stiffness = data.get("wheels_stiffness")
+    if not stiffness:
         return []
-    if not body.wheels:
-        return []
-    from ..fields import SumTorque
-    from ..integrators import integrate
-
-    q0 = np.asarray(data["initial"]["quaternion"], dtype=float)
-    w0 = np.asarray(data["initial"]["angular_velocity"], dtype=float)
-    speeds = data.get("wheel_speeds")
-    sc = Scenario(name=name, path=Path(data["model"]), model=Path(data["model"]), duration=float(data["duration"]),
-                  q0=q0, omega0=w0, torque=data.get("torque"), wheel_speeds=None if speeds is None else tuple(speeds))
-    wheels, applied = torque_parts(sc, body)
-    axis = wheels.h0 if np.any(wheels.h0) else np.asarray(body.wheels[0].axis, dtype=float)
-    axis = axis / np.linalg.norm(axis)
-    runs = {"with the wheels": (body.inertia, wheels if applied is None else SumTorque([wheels, applied])),
-            "wheels stopped (one rigid body)": (body.mass_inertia(), applied)}
     fig, ax = subplots(1, size=(7.5, 4.2))
-    for label, (inertia, torque) in runs.items():
-        run = integrate("lie-rkmk4", inertia, q0, w0, dt=1 / 512, duration=sc.duration, torque=torque)
-        start = rot.quat_rotate(run.q[0], axis)
-        now = rot.quat_rotate(run.q, axis)
-        angle = np.degrees(np.arctan2(np.linalg.norm(np.cross(now, start), axis=-1), now @ start))
-        ax.plot(run.t, angle, lw=1.4, label=label)
+    for label, angle in stiffness["angle_deg"].items():
+        ax.plot(stiffness["t"], angle, lw=1.4, label=label)
     ax.set_xlabel("t [s]")
     ax.set_ylabel("wheels' axis from its start [deg]")
     ax.set_title(f"{name}: the wheels' momentum stiffens the attitude")

@@ -326,7 +326,7 @@ def _scenario_blocks(st, figs) -> list:
     w0 = (np.round(sc.omega0, 6) + 0.0).tolist()
     blocks.append(Para([("Model ", None), (str(sc.model), "code"), (f", {sc.duration:g} s, reference ", None),
                         (sc.reference, "b"), (f"; q0 = {q0} (body → world), ω0 = {w0} rad/s (body frame); torque: "
-                                              f"{_torque_text(sc.torque)}{_own_torque_text(sc)}. Orders "
+                                              f"{_torque_text(sc.torque)}{_own_torque_text(st.data)}. Orders "
                                               f"are measured on errors above {st.order_floor:.2g} rad.", None)],
                        small=True))
     if st.reference_check:  # what the guard found: the closed form checked, or DOP853 instead and why
@@ -390,16 +390,9 @@ def _scenario_blocks(st, figs) -> list:
     return blocks
 
 
-def _own_torque_text(sc) -> str:
+def _own_torque_text(data: dict) -> str:
     """What the model itself exerts (a top's gravity, a gyrostat's wheels), as words after the scenario's torque."""
-    from ..models import ModelError, load_body
-    from ..scenario import torque_parts
-
-    try:
-        own, _ = torque_parts(sc, load_body(sc.model))
-    except (ModelError, ValueError, OSError):  # said where the study ran
-        return ""
-    return "" if own is None else f"; the model's own: {own.describe()}"
+    return f"; the model's own: {data['model_torque']}" if data.get("model_torque") else ""
 
 
 def _torque_text(torque) -> str:

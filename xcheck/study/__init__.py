@@ -55,6 +55,10 @@ class StudyResult:
     reference_check: dict | None = None
     #: why the study cannot decide, beyond its checks' own notes (a suspect or uncertain reference, a vacuous study)
     inconclusive: list = field(default_factory=list)
+    #: the torque the model exerts itself, in words (a top's gravity, a gyrostat's wheels); None: none
+    model_torque: str | None = None
+    #: a gyrostat's wheels stiffening its attitude (:func:`xcheck.assembly.wheels_stiffness`), full studies only
+    wheels_stiffness: dict | None = None
 
     @property
     def outcome(self) -> str:
@@ -91,7 +95,9 @@ class StudyResult:
                 "comparisons": list(self.comparisons),
                 **({"reference_check": dict(self.reference_check)} if self.reference_check else {}),
                 **({"assumptions": list(sc.assumptions)} if sc.assumptions else {}),
-                **({"wheel_speeds": list(sc.wheel_speeds)} if sc.wheel_speeds is not None else {})}
+                **({"wheel_speeds": list(sc.wheel_speeds)} if sc.wheel_speeds is not None else {}),
+                **({"model_torque": self.model_torque} if self.model_torque else {}),
+                **({"wheels_stiffness": self.wheels_stiffness} if self.wheels_stiffness else {})}
 
 
 def default_methods(scenario: Scenario) -> list[str]:
@@ -148,7 +154,24 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     tasks = [(scenario, m, tuple(steps), comparison_partner(scenario, m, methods), tolerances, timing) for m in methods]
     results = map_tasks(run_method, tasks, workers=workers, progress=progress, pool=pool,
                    labels=[f"{scenario.name}: {m}" for m in methods], here=prefer_here if here else None)
-    return assemble(scenario, steps, results, quick=quick and not steps_given)
+    return about_the_model(assemble(scenario, steps, results, quick=quick and not steps_given), quick)
+
+
+def about_the_model(st: StudyResult, quick: bool = False) -> StudyResult:
+    """What the report says of the model beside the study's numbers, taken once from the study's own body and torque
+    (the report neither reloads the MJCF nor integrates): the model's own torque in words and, for a full study of a
+    gyrostat, how its wheels stiffen the attitude. ``st``, filled in."""
+    from ..assembly import wheels_stiffness
+    from .context import run_context
+
+    try:
+        ctx = run_context(st.scenario)
+    except ValueError:  # the study said why
+        return st
+    st.model_torque = None if ctx.own is None else ctx.own.describe()
+    if not quick:
+        st.wheels_stiffness = wheels_stiffness(st.scenario)
+    return st
 
 
 def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, progress=None,
@@ -179,7 +202,7 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
         missing[k] -= 1
         if missing[k] == 0:
             sc, _, steps = plans[k]
-            studies[k] = assemble(sc, steps, results[first[k]:first[k + 1]], quick=quick)
+            studies[k] = about_the_model(assemble(sc, steps, results[first[k]:first[k + 1]], quick=quick), quick)
             if on_study:
                 on_study(studies[k])
 

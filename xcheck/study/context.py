@@ -8,7 +8,7 @@ import numpy as np
 from ..guard import check_exact, guard_times, stand_in
 from ..reference import ReferenceFailure, dop853_solution, exact_reference
 from ..runners import RUNNERS, RunContext
-from ..scenario import Scenario, build_torque, torque_parts
+from ..scenario import Scenario
 
 __all__ = ["run_context", "scenario_reference", "scenario_key"]
 
@@ -38,19 +38,10 @@ def _cached(kind, scenario, make):
 
 
 def run_context(scenario: Scenario) -> RunContext:
-    def make():
-        from ..models import load_body
+    """The scenario's body, torque and initial state (:func:`xcheck.assembly.context_of`), once per process."""
+    from ..assembly import context_of
 
-        body = load_body(scenario.model)
-        moments = scenario.inertia
-        own, applied = torque_parts(scenario, body)
-        # an engine that simulates the MJCF exerts the model's own torque (a top's gravity) itself: it applies only
-        # the scenario's
-        return RunContext(inertia=body.inertia_for(moments), model_path=str(scenario.model), q0=scenario.q0,
-                          omega0=scenario.omega0, duration=scenario.duration, torque=build_torque(scenario, body),
-                          sequence=scenario.sequence, model_moments=None if moments is None else tuple(moments),
-                          engine_torque="same" if own is None else applied, wheel_speeds=scenario.wheel_speeds)
-    return _cached("context", scenario, make)
+    return _cached("context", scenario, lambda: context_of(scenario))
 
 
 class _Reference:

@@ -446,7 +446,7 @@ def _check_axis_against_base(path: Path, axis: Axis, base: Scenario, seed: int, 
                        "give")
         if axis.name in ("model", "field", "inertia", "inertia_scale") or axis.name.startswith("field.") or \
                 "dipole" in axis.name:
-            from ..scenario import check_scenario_model
+            from ..assembly import check_scenario_model
 
             sc = apply_cell(base, {axis.name: value})
             try:  # the model loads, its wheels take the base's speeds, the torque builds, the reference can be had
