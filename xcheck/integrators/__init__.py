@@ -64,6 +64,8 @@ def _kernels_for(*, python: bool = False):
 
 
 def _method(name) -> Method:
+    if isinstance(name, Method):  # a method made by hand (another tableau on a scheme: its stage loop is generated)
+        return name
     if name not in METHODS:
         raise ValueError(f"method: unknown {name!r}; expected one of {', '.join(METHODS)}")
     return METHODS[name]
@@ -156,7 +158,8 @@ def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, t
     y0 = info.encode(q0, omega0, sequence)
     out = np.empty((n + 1, m))
     args = _kernel_args(info, sequence, dt=dt, n=n, last_h=last_h, torque=(tk, P, T), save_every=1)
-    steps, status = kern.run_one(info.kernel, args, y0, I, np.linalg.inv(I), out)
+    step = kern.step_of(info.kernel, info.tableau, info.dexp_A)  # made in the variant that runs it
+    steps, status = kern.run_one(info.kernel, step, args, y0, I, np.linalg.inv(I), out)
     y = out[: steps + 1, :m]
     q, omega, extras = info.decode(y, sequence)
     extras["evaluations"] = info.stages * steps  # of the steps completed
@@ -221,7 +224,8 @@ def integrate_batch(method: str, inertia, q0, omega0, *, dt: float, duration: fl
     steps_done = np.zeros(N, dtype=np.int64)
     status = np.zeros(N, dtype=np.int64)
     args = _kernel_args(info, sequence, dt=dt, n=n, last_h=last_h, torque=(tk, P, T), save_every=save_every)
-    kern.run_many(info.kernel, args, Y0, I, Iinv, out, steps_done, status)
+    step = kern.step_of(info.kernel, info.tableau, info.dexp_A)
+    kern.run_many(info.kernel, step, args, Y0, I, Iinv, out, steps_done, status)
     y = out[:, :, :m].reshape(N * rows, m)
     q, omega, _ = info.decode(y, sequence)  # (sign continuity across trajectories is harmless)
     full_t = time_grid(n, float(dt), float(duration))

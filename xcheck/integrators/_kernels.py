@@ -60,6 +60,7 @@ import numpy as np
 
 from .. import rotations as rot
 from ..trajectory import continuous_quaternions
+from .tableau import RK4
 
 #: Which variant this module is: set by the loader before the module runs (``_kernels_for``); the module
 #: imported normally is the compiled one.
@@ -128,7 +129,8 @@ class Scheme:
     inputs it needs among :data:`DERIV_ARGS` (``yhat``: the stage values of the dexp argument, only the printed
     algorithm 172 differs; ``tk, tP, tT`` the torque model; ``axes``, ``sing_tol`` for Euler angles; ``work``).
     ``before_step`` and ``after_step`` (inputs among :data:`HOOK_ARGS`) change ``y`` between steps, exactly (the order
-    is unaffected); ``step`` is ``"rk"`` (:func:`rk_step`, any tableau) or ``"cf4"`` (:func:`cf4_step`);
+    is unaffected); ``step`` is ``"rk"`` (the stage loop generated for the method's tableau, :func:`rk_step_for`) or
+    ``"cf4"`` (:func:`cf4_step`);
     ``first`` components of ``y`` are constant within a step (a reference quaternion); ``work`` floats of
     scratch. ``encode(q0 (..., 4), w0 (..., 3), seq) -> y0 (..., size)`` and
     ``decode(y (n, size), seq) -> (q, omega, extras)`` are plain Python."""
@@ -303,6 +305,14 @@ def euler_equation(I, Iinv, tau, w, out):
                                          Iinv[2, 0], Iinv[2, 1], Iinv[2, 2], tau[0], tau[1], tau[2], w[0], w[1], w[2])
 
 
+@ijit
+def rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dw):
+    """Every scheme's tail: the torque at the stage (``q`` its attitude, ``w`` its rate) and Euler's equation,
+    ``dw = I^-1 (tau - w x I w)`` (seed 004 eq. 158); ``tau`` is scratch (the torque, left there)."""
+    torque_eval(tk, tP, tT, t, q, w, tau)
+    euler_equation(I, Iinv, tau, w, dw)
+
+
 @jit
 def rotate_about_axis_T(axis, c, s, v, out):
     """``R_axis(angle)^T v`` for the elementary active rotation about body axis 0, 1 or 2, given
@@ -431,8 +441,7 @@ def deriv_euler(t, y, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work):
     dy[2] = dot3(r, w) / det
     if torque_needs_attitude(tk, tP):
         euler_quat(axes, ang, q, e)
-    torque_eval(tk, tP, tT, t, q, w, tau)
-    euler_equation(I, Iinv, tau, w, dy[3:6])
+    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dy[3:6])
     return OK
 
 
@@ -548,8 +557,7 @@ def deriv_formulation2(t, y, dy, I, Iinv, tk, tP, tT, work):
     w = y[4:7]
     dy[0], dy[1], dy[2], dy[3] = f2_kinematics(y[0], y[1], y[2], y[3], y[4], y[5], y[6])
     tau = work[0:3]
-    torque_eval(tk, tP, tT, t, p, w, tau)
-    euler_equation(I, Iinv, tau, w, dy[4:7])
+    rigid_body_rates(t, p, w, I, Iinv, tk, tP, tT, tau, dy[4:7])
     return OK
 
 
@@ -590,8 +598,7 @@ def deriv_lie(t, y, yhat, dy, I, Iinv, tk, tP, tT, work):
     if torque_needs_attitude(tk, tP):
         quat_exp(u, e)  # the stage's attitude p_n ∘ exp_S3(u) (eq. 171)
         qmul(y[0:4], e, p)
-    torque_eval(tk, tP, tT, t, p, w, tau)
-    euler_equation(I, Iinv, tau, w, dy[7:10])
+    rigid_body_rates(t, p, w, I, Iinv, tk, tP, tT, tau, dy[7:10])
     return OK
 
 
@@ -636,8 +643,7 @@ def deriv_dcm(t, y, dy, I, Iinv, tk, tP, tT, work):
     tau, q = work[0:3], work[3:7]
     if torque_needs_attitude(tk, tP):
         dcm_to_quat(R, q)
-    torque_eval(tk, tP, tT, t, q, w, tau)
-    euler_equation(I, Iinv, tau, w, dy[9:12])
+    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dy[9:12])
     return OK
 
 
@@ -694,8 +700,7 @@ def deriv_gibbs(t, y, dy, I, Iinv, tk, tP, tT, work):
     if torque_needs_attitude(tk, tP):
         gibbs_quat(g, e)
         qmul(y[0:4], e, q)
-    torque_eval(tk, tP, tT, t, q, w, tau)
-    euler_equation(I, Iinv, tau, w, dy[7:10])
+    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dy[7:10])
     return OK
 
 
@@ -709,8 +714,7 @@ def deriv_rotvec(t, y, dy, I, Iinv, tk, tP, tT, work):
     if torque_needs_attitude(tk, tP):
         quat_exp(phi, e)
         qmul(y[0:4], e, q)
-    torque_eval(tk, tP, tT, t, q, w, tau)
-    euler_equation(I, Iinv, tau, w, dy[7:10])
+    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dy[7:10])
     return OK
 
 
@@ -778,8 +782,7 @@ def deriv_mrp(t, y, dy, I, Iinv, tk, tP, tT, work):
     tau, q = work[0:3], work[3:7]
     if torque_needs_attitude(tk, tP):
         mrp_quat(s, q)
-    torque_eval(tk, tP, tT, t, q, w, tau)
-    euler_equation(I, Iinv, tau, w, dy[3:6])
+    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dy[3:6])
     return OK
 
 
@@ -814,6 +817,9 @@ MRP = declare(Scheme("mrp", size=6, deriv=deriv_mrp, after_step=shadow_mrp, enco
 # range, a torque through its field model) is done for the bodies that need it in a loop of its own.
 #: Bodies in a block.
 LANES = 128
+#: The classical RK4's weights b = (1/6, 1/3, 1/3, 1/6) as floats (the lanes' weighted sum; the generated step's
+#: literals are the same floats).
+RK4_B0, RK4_B1 = 1.0 / 6.0, 1.0 / 3.0
 
 
 @ijit
@@ -951,7 +957,7 @@ LANES_OF = {F2: ("lanes_stage_f2", "lanes_after_f2"), LIE: ("lanes_stage_lie", "
 def run_lanes(scheme, stage, after, a, Y0, IL, JL, shared, out, steps_done, status, k0, nb, Y, S, K, Yp, tau, C,
               q, tout):
     """:func:`run` for the bodies ``k0 .. k0 + nb`` of ``Y0`` in lockstep (see the section's comment), the classical
-    RK4 of :func:`rk_step` stage by stage, ``stage`` and ``after`` the scheme's lanes; per body the same arithmetic,
+    classical RK4 (:data:`RK4_STEP`) stage by stage, ``stage`` and ``after`` the scheme's lanes; per body the same arithmetic,
     the same stop at a non-finite state, the same rows in ``out``."""
     m = STATE_SIZE[scheme]
     first = FIRST[scheme]
@@ -1074,46 +1080,80 @@ if not PYTHON_MODE:
 # ------------------------------------------------------------------------------------------------
 # the steps: the stage arithmetic for every tableau, and the commutator-free step
 # ------------------------------------------------------------------------------------------------
-#: The classical RK4's weights b = (1/6, 1/3, 1/3, 1/6) as floats (what the tableau's exact fractions give).
-RK4_B0, RK4_B1 = 1.0 / 6.0, 1.0 / 3.0
+def _term(coef, k: int) -> str:
+    """``coef * K[k, l]`` as source, the coefficient a literal of its float (1 left out)."""
+    x = float(coef)
+    return f"K[{k}, l]" if x == 1.0 else f"{x!r} * K[{k}, l]"
 
 
-@ijit
-def rk_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, tP, tT, axes, sing_tol, work):
-    """One step of the classical RK4 (:data:`~xcheck.integrators.tableau.RK4`, its coefficients as constants):
-    ``y <- y + h/6 (K_1 + 2 K_2 + 2 K_3 + K_4)`` with ``K_i = f(t + c_i h, y + h a_i K_(i-1))``, ``a = (0, 1/2, 1/2,
-    1)``; the same numbers as the general stage sums ``y + h sum_j A_ij K_j`` (the zeros of A add nothing, the
-    halves are exact).
+def _sum(row) -> str | None:
+    """The stage sum ``sum_j row_j K_j`` as source, left to right, zeros left out; None when all are zero."""
+    terms = [_term(a, j) for j, a in enumerate(row) if a != 0]
+    return " + ".join(terms) if terms else None
 
-    ``Ahat`` (used when ``use_hat``) gives a second set of stage values passed to the derivative as ``yhat``: only
-    the printed Lie algorithm 172 needs it. ``y`` is left unchanged if a stage fails.
-    """
-    m = STATE_SIZE[scheme]
-    first = FIRST[scheme]
-    for l in range(m):  # the first components are constant in the step (a reference quaternion)
-        Y[l] = y[l]
-    if use_hat:
-        for l in range(m):
-            Yhat[l] = y[l]
-    for i in range(4):
+
+def rk_step_source(name: str, A, b, c, Ahat=None) -> str:
+    """The source of one step of the explicit Runge-Kutta method ``(A, b, c)`` (exact fractions: each coefficient
+    compiled in as a literal of its float, zeros left out), for any scheme::
+
+        K_i = f(t + c_i h, y + h sum_j A_ij K_j),    y <- y + h sum_i b_i K_i
+
+    on the components of ``y`` from the scheme's ``first`` on (the others, a reference quaternion, are constant
+    in the step). ``Ahat`` (the printed Lie algorithm 172's): a second set of stage values passed to the derivative
+    as ``yhat``. ``y`` is left unchanged if a stage fails. The arithmetic is the stage sums' own, left to right:
+    for RK4 the numbers of the hand-written loop it replaced, bit for bit."""
+    s = len(b)
+    lines = [f"def {name}(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, tP, tT, axes, sing_tol,",
+             "        work):",
+             "    m = STATE_SIZE[scheme]",
+             "    first = FIRST[scheme]",
+             "    for l in range(m):  # the first components are constant in the step (a reference quaternion)",
+             "        Y[l] = y[l]"]
+    if Ahat is not None:
+        lines += ["        Yhat[l] = y[l]"]
+    hat = "Yhat" if Ahat is not None else "Y"
+    for i in range(s):
+        body = []
+        stage = _sum(A[i][:i])
         if i > 0:
-            Ki = K[i - 1]
-            for l in range(first, m):
-                Y[l] = y[l] + h * (Ki[l] if i == 3 else 0.5 * Ki[l])
-        if use_hat:
-            for l in range(first, m):
-                acc = 0.0
-                for j in range(i):
-                    acc += Ahat[i, j] * K[j, l]
-                Yhat[l] = y[l] + h * acc
-        status = deriv(scheme, t + c[i] * h, Y, Yhat if use_hat else Y, K[i], I, Iinv, tk, tP, tT, axes, sing_tol,
-                       work)
-        if status != OK:
-            return status
-    K0, K1, K2, K3 = K[0], K[1], K[2], K[3]
-    for l in range(first, m):
-        y[l] += h * (((RK4_B0 * K0[l] + RK4_B1 * K1[l]) + RK4_B1 * K2[l]) + RK4_B0 * K3[l])
-    return OK
+            body.append(f"        Y[l] = y[l] + h * ({stage})" if stage else "        Y[l] = y[l]")
+        if Ahat is not None and i > 0:
+            stage_hat = _sum(Ahat[i][:i])
+            body.append(f"        Yhat[l] = y[l] + h * ({stage_hat})" if stage_hat else "        Yhat[l] = y[l]")
+        if body:
+            lines += ["    for l in range(first, m):", *body]
+        ci = float(c[i])
+        when = "t" if ci == 0.0 else ("t + h" if ci == 1.0 else f"t + {ci!r} * h")
+        lines += [f"    status = deriv(scheme, {when}, Y, {hat}, K[{i}], I, Iinv, tk, tP, tT, axes, sing_tol, work)",
+                  "    if status != OK:",
+                  "        return status"]
+    lines += ["    for l in range(first, m):",
+              f"        y[l] += h * ({_sum(b)})",
+              "    return OK"]
+    return "\n".join(lines) + "\n"
+
+
+#: The generated steps, by name (:func:`rk_step_for`).
+RK_STEPS: dict = {}
+
+
+def rk_step_for(tableau, dexp_A=None) -> str:
+    """The name of the compiled step of ``tableau`` (a :class:`~xcheck.integrators.tableau.ButcherTableau`; with the
+    printed algorithm 172's ``dexp_A``), generated from its exact fractions the first time it is asked for and
+    compiled from text under this file's name (numba caches it like a function written out here)."""
+    ident = "rk_step_" + "".join(ch if ch.isalnum() else "_" for ch in tableau.name) + ("_hat" if dexp_A else "")
+    if ident not in RK_STEPS:
+        if any(tableau.A[i][j] != 0 for i in range(tableau.stages) for j in range(i, tableau.stages)):
+            raise ValueError(f"{tableau.name}: an implicit tableau (A not strictly lower triangular); the kernels "
+                             "run explicit Runge-Kutta methods")
+        namespace = globals()
+        exec(compile(rk_step_source(ident, tableau.A, tableau.b, tableau.c, dexp_A), __file__, "exec"), namespace)
+        RK_STEPS[ident] = namespace[ident] = ijit(namespace[ident])
+    return ident
+
+
+#: The classical RK4's generated step (the lanes run its arithmetic, body by body in lockstep).
+RK4_STEP = rk_step_for(RK4)
 
 
 #: CF4's coefficients (Celledoni, Marthinsen and Owren 2003, eq. 16), for body rates acting on the right:
@@ -1182,7 +1222,7 @@ def cf4_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, t
 # ------------------------------------------------------------------------------------------------
 @ijit
 def run(scheme, step_fn, a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev):
-    """Integrate ``a.n`` steps with ``step_fn`` (:func:`rk_step` or :func:`cf4_step`) (the last of length
+    """Integrate ``a.n`` steps with ``step_fn`` (a generated RK step, :func:`rk_step_for`, or :func:`cf4_step`) (the last of length
     ``a.last_h``) from ``y0``; store ``y`` every ``a.save_every`` steps and at the end into ``out`` (row 0 =
     ``y0``). ``K, Y, Yhat, work, y, y_prev`` are scratch (:func:`scratch`). Returns (steps done, status): on a
     singular or non-finite step the loop stops, and ``out``'s remaining rows hold the last good state."""
@@ -1222,17 +1262,17 @@ def run(scheme, step_fn, a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev):
     return n, OK
 
 
-def _entry_points(scheme: int):
-    """The two compiled entry points of ``scheme``, made from the registry:
-    ``run_<name>(a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev)`` (the scratch arrays of :func:`run`,
-    allocated by the caller: the loop itself neither allocates nor counts references) and
-    ``many_<name>(a, Y0, I, Iinv, out, steps_done, status, K, Y, Yhat, work, y, y_prev)``, which calls the
-    first for each row in parallel threads, each row with its own scratch. The scheme is a literal constant
-    and its step function is named in their source (an overload choosing the step doubled the compile time).
-    They are compiled from text under this file's name so that numba caches them like functions written out
-    here (a closure would miss the cache on every run, and ``numba.literally`` re-types every call: 67 ms)."""
-    ident = SCHEMES[scheme].name.replace("-", "_")
-    step = {"rk": "rk_step", "cf4": "cf4_step"}[SCHEMES[scheme].step]
+def _entry_points(scheme: int, step: str):
+    """The two compiled entry points of ``scheme`` stepped by ``step`` (a generated RK step, :func:`rk_step_for`, or
+    :func:`cf4_step`), made from the registry: ``run_<name>__<step>(a, y0, I, Iinv, out, K, Y, Yhat, work, y,
+    y_prev)`` (the scratch arrays of :func:`run`, allocated by the caller: the loop itself neither allocates nor
+    counts references) and ``many_<name>__<step>(a, Y0, I, Iinv, out, steps_done, status, K, Y, Yhat, work, y,
+    y_prev)``, which calls the first for each row in parallel threads, each row with its own scratch. The scheme is a
+    literal constant and its step function is named in their source (an overload choosing the step doubled the
+    compile time). They are compiled from text under this file's name so that numba caches them like functions
+    written out here (a closure would miss the cache on every run, and ``numba.literally`` re-types every call: 67
+    ms)."""
+    ident = SCHEMES[scheme].name.replace("-", "_") + "__" + step
     namespace = dict(globals())
     exec(compile(f"def run_{ident}(a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev):\n"
                  f"    return run({scheme}, {step}, a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev)\n",
@@ -1248,7 +1288,20 @@ def _entry_points(scheme: int):
     return one, pjit(namespace[f"many_{ident}"])
 
 
-RUN_ONE, RUN_MANY = (tuple(t) for t in zip(*(_entry_points(k) for k in range(len(SCHEMES)))))
+#: The entry points made so far, by (scheme, step): each on first use (:func:`entry_points`).
+_ENTRIES: dict = {}
+
+
+def entry_points(scheme: int, step: str):
+    """``(run_one, run_many)`` compiled for ``scheme`` stepped by ``step``, made the first time they are asked for."""
+    if (scheme, step) not in _ENTRIES:
+        _ENTRIES[scheme, step] = _entry_points(scheme, step)
+    return _ENTRIES[scheme, step]
+
+
+def step_of(scheme: int, tableau, dexp_A=None) -> str:
+    """The step function's name of ``scheme`` on ``tableau``: CF4's own step, or the tableau's generated RK step."""
+    return "cf4_step" if SCHEMES[scheme].step == "cf4" else rk_step_for(tableau, dexp_A)
 
 
 def _lanes_entry(scheme: int):
@@ -1302,16 +1355,16 @@ def scratch(scheme, a, *batch):
             np.zeros((*batch, m)), np.zeros((*batch, m)))
 
 
-def run_one(scheme, a, y0, I, Iinv, out):
-    """One trajectory of ``scheme`` (:func:`run`): (steps done, status)."""
-    return RUN_ONE[scheme](a, y0, I, Iinv, out, *scratch(scheme, a))
+def run_one(scheme, step, a, y0, I, Iinv, out):
+    """One trajectory of ``scheme`` stepped by ``step`` (:func:`run`, :func:`step_of`): (steps done, status)."""
+    return entry_points(scheme, step)[0](a, y0, I, Iinv, out, *scratch(scheme, a))
 
 
-def run_many(scheme, a, Y0, I, Iinv, out, steps_done, status):
+def run_many(scheme, step, a, Y0, I, Iinv, out, steps_done, status):
     """:func:`run` for each row of ``Y0`` (N, m), in parallel threads; ``I``, ``Iinv`` are (N, 3, 3). A scheme with
-    lanes (and the RK4 of its own stage values: not the printed algorithm 172's) runs them instead: the same
+    lanes on the classical RK4 of its own stage values (not the printed algorithm 172's) runs them instead: the same
     numbers, blocks of bodies in lockstep."""
-    if scheme in RUN_LANES and not a.use_hat:
+    if scheme in RUN_LANES and step == RK4_STEP:
         N = Y0.shape[0]
         IL = np.ascontiguousarray(I.reshape(N, 9).T)
         JL = np.ascontiguousarray(Iinv.reshape(N, 9).T)
@@ -1324,4 +1377,4 @@ def run_many(scheme, a, Y0, I, Iinv, out, steps_done, status):
         for job in jobs:
             job.result()
         return
-    RUN_MANY[scheme](a, Y0, I, Iinv, out, steps_done, status, *scratch(scheme, a, Y0.shape[0]))
+    entry_points(scheme, step)[1](a, Y0, I, Iinv, out, steps_done, status, *scratch(scheme, a, Y0.shape[0]))

@@ -32,10 +32,8 @@ class Method:
     demonstration: str | None = None
 
     def __post_init__(self):
-        if self.kernel is not None and self.tableau != RK4:
-            raise ValueError(f"{self.name}: the kernels' stage loop is the classical RK4 (its coefficients compiled in "
-                             f"as constants); a method on the tableau {self.tableau.name!r} needs a stage loop of its "
-                             "own in xcheck.integrators._kernels")
+        if self.kernel is not None:  # an implicit tableau is refused when the method is made, not when it first runs
+            K.step_of(self.kernel, self.tableau, self.dexp_A)
 
     @property
     def adaptive(self) -> bool:

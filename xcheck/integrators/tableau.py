@@ -1,5 +1,5 @@
-"""Butcher tableaux: a Runge-Kutta method is data (exact fractions); one stage loop runs them all
-(:func:`xcheck.integrators._kernels.rk_step`)."""
+"""Butcher tableaux: a Runge-Kutta method is data (exact fractions); the kernels generate each one's stage loop from
+them (:func:`xcheck.integrators._kernels.rk_step_for`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from fractions import Fraction as F
 
 import numpy as np
 
-__all__ = ["ButcherTableau", "RK4", "THESIS_172_DEXP_A"]
+__all__ = ["ButcherTableau", "RK4", "RK38", "KUTTA3", "THESIS_172_DEXP_A"]
 
 
 @dataclass(frozen=True)
@@ -50,3 +50,24 @@ RK4 = ButcherTableau(
 #: 10 s, exact reference): order 2.00 as printed (1.1e-8 rad at dt = 1/256 s) against 4.00 for the
 #: RKMK4 form (2.3e-12 rad): ``lie-rkmk4`` is the corrected method, ``lie-thesis-172`` the printed one.
 THESIS_172_DEXP_A = ((_0, _0, _0, _0), (_2, _0, _0, _0), (_2, _0, _0, _0), (_0, _0, _1, _0))
+
+_3, _23 = F(1, 3), F(2, 3)
+
+#: Kutta's 3/8 rule (1901), fourth order: the classical method's sibling (Hairer, Nørsett & Wanner, Solving ODEs I,
+#: table II.1.2).
+RK38 = ButcherTableau(
+    name="3/8 rule",
+    A=((_0, _0, _0, _0), (_3, _0, _0, _0), (-_3, _1, _0, _0), (_1, -_1, _1, _0)),
+    b=(F(1, 8), F(3, 8), F(3, 8), F(1, 8)),
+    c=(_0, _3, _23, _1),
+    order=4,
+)
+
+#: Kutta's third-order method (1901; Hairer, Nørsett & Wanner, table II.1.1).
+KUTTA3 = ButcherTableau(
+    name="Kutta 3",
+    A=((_0, _0, _0), (_2, _0, _0), (-_1, F(2), _0)),
+    b=(F(1, 6), F(2, 3), F(1, 6)),
+    c=(_0, _2, _1),
+    order=3,
+)
