@@ -63,7 +63,7 @@ def test_numba_cache_is_outside_the_package(tmp_path):
     assert proc.returncode == 0, proc.stderr
     root = Path(proc.stdout.strip())
     assert root.parent == tmp_path / "cache" and PACKAGE not in root.parents
-    assert list((root / "fields").glob("kernel.*.nbi")) and list((root / "integrators").glob("_kernels.run_formulation_2__*.nbi"))
+    assert list((root / "fields").glob("kernel.*.nbi")) and list((root / "integrators" / "kernels").glob("loops.run_formulation_2__*.nbi"))
     new = [p for p in PACKAGE.rglob("*.nb[ic]") if p.stat().st_mtime >= started]
     assert not new, new
 

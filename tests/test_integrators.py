@@ -295,7 +295,7 @@ def test_the_lanes_give_every_body_the_single_trajectorys_numbers_bit_for_bit(me
     rates, their own inertia or one shared, with an attitude-dependent and a time-dependent torque, and bodies
     that blow up at a coarse step: every component of every saved state equal, the same status and steps."""
     from xcheck.fields import BodyFieldTable, MagneticTorque, UniformField
-    from xcheck.integrators import _kernels
+    from xcheck.integrators import kernels as _kernels
 
     rng = np.random.default_rng(3)
     n = 300
@@ -348,7 +348,7 @@ def test_formulation1_closed_form_solves_eq154():
     tau = np.array([1e-3, -2e-3, 5e-4])
     y = np.concatenate([p, pd])
     dy = np.zeros(8)
-    K.deriv_formulation1(0.0, y, dy, I, np.linalg.inv(I), lambda t, q, w: tau, None, None, np.zeros(K.WORK_SIZE[K.F1]))
+    K.schemes.deriv_formulation1(0.0, y, dy, I, np.linalg.inv(I), lambda t, q, w: tau, None, None, np.zeros(K.WORK_SIZE[K.F1]))
 
     def G(e):
         return np.array([[-e[1], e[0], e[3], -e[2]], [-e[2], -e[3], e[0], e[1]], [-e[3], e[2], -e[1], e[0]]])
@@ -469,4 +469,4 @@ def test_a_cold_compile_cache_is_seen_and_warmed(tmp_path):
     env.pop("NUMBA_CACHE_DIR", None)
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=300)
     assert out.stdout.split() == ["True", "False"], out.stderr[-2000:]
-    assert list(tmp_path.rglob("_kernels.run_formulation_2__*.nbi"))
+    assert list(tmp_path.rglob("loops.run_formulation_2__*.nbi"))

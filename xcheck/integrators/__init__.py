@@ -3,7 +3,7 @@
 >>> from xcheck.integrators import integrate, METHODS
 >>> traj = integrate("lie-rkmk4", [0.005625, 0.0028125, 0.0028125], q0, omega0, dt=1/256, duration=10.0)
 
-The fixed-step methods run in one compiled kernel (:mod:`._kernels`); with a Python torque callable the
+The fixed-step methods run in one compiled kernel (:mod:`.kernels`); with a Python torque callable the
 same kernel source runs interpreted. Parallel runs use processes or :func:`integrate_batch` (threads inside
 one compiled call), never Python threads over :func:`integrate`.
 """
@@ -26,7 +26,7 @@ from ..trajectory import (
     time_grid,
     tolerances_at,
 )
-from . import _kernels
+from . import kernels
 from .kernel_args import KernelArgs
 from .methods import METHODS, Method
 
@@ -48,13 +48,14 @@ _twins: dict[str, object] = {}
 def _kernels_for(*, python: bool = False):
     """The kernels for a run, the one place the variant is chosen: ``compiled`` (single trajectories and
     batches) or ``python`` (interpreted, for Python torque callables). The python variant is the same source
-    loaded under another module name with ``VARIANT`` set before it runs (see :mod:`._kernels`)."""
+    package loaded under another name with ``VARIANT`` set on it before its modules run (see :mod:`.kernels`)."""
     variant = "python" if python else "compiled"
     if variant == "compiled":
-        return _kernels
+        return kernels
     if variant not in _twins:
-        name = f"{_kernels.__name__}_{variant}"
-        spec = importlib.util.spec_from_file_location(name, _kernels.__file__)
+        name = f"{kernels.__name__}_{variant}"
+        spec = importlib.util.spec_from_file_location(name, kernels.__file__,
+                                                      submodule_search_locations=list(kernels.__path__))
         module = importlib.util.module_from_spec(spec)
         module.VARIANT = variant
         sys.modules[name] = module
@@ -246,7 +247,7 @@ def compile_cache_is_cold() -> bool:
 
     if config.CACHE_DIR:
         return False
-    return not any((cache_root() / "integrators").glob("_kernels.run_*.nbi"))
+    return not any((cache_root() / "integrators" / "kernels").glob("loops.run_*.nbi"))
 
 
 def precompile(methods) -> None:

@@ -1,6 +1,6 @@
 """The named arguments of the integrator kernels (one record instead of a positional tuple).
 
-Defined in a module of its own, outside :mod:`._kernels`, so that both variants of the kernels (compiled,
+Defined in a module of its own, outside :mod:`.kernels`, so that both variants of the kernels (compiled,
 interpreted) see the same class: numba's cache stores signatures that name it."""
 
 from __future__ import annotations

@@ -1,11 +1,11 @@
-"""The registry of our integrators: name -> the kernel scheme it runs (:mod:`._kernels`, which also says how
+"""The registry of our integrators: name -> the kernel scheme it runs (:mod:`.kernels`, which also says how
 ``(q0, omega0)`` become its state and back), the tableau, the order, the seed."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from . import _kernels as K
+from . import kernels as K
 from .tableau import RK4, THESIS_172_DEXP_A, ButcherTableau
 
 __all__ = ["Method", "METHODS"]
@@ -15,7 +15,7 @@ __all__ = ["Method", "METHODS"]
 class Method:
     """One integrator.
 
-    ``kernel`` is a scheme of :mod:`xcheck.integrators._kernels` (None: not a fixed-step kernel method);
+    ``kernel`` is a scheme of :mod:`xcheck.integrators.kernels` (None: not a fixed-step kernel method);
     ``expected_order`` None means adaptive (no order in the step); ``dexp_A`` the dexp-argument matrix of
     the printed algorithm 172 (None: the tableau's own); ``tolerances``: an adaptive method's default relative
     and absolute tolerances (an ``rtol`` given to it keeps their proportion); ``demonstration``: why the method

@@ -1,5 +1,5 @@
 """Butcher tableaux: a Runge-Kutta method is data (exact fractions); the kernels generate each one's stage loop from
-them (:func:`xcheck.integrators._kernels.rk_step_for`)."""
+them (:func:`xcheck.integrators.kernels.rk_step_for`)."""
 
 from __future__ import annotations
 
