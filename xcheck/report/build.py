@@ -47,13 +47,14 @@ def resolve_scenarios(names) -> list:
 
 @dataclass
 class ReportOutcome:
-    """What :func:`build_report` did: the studies (in the scenarios' order), the report folder, whether the
-    determination studies and seed 002's tables passed (True when no scenario has one), and the phases'
-    ``(name, time.perf_counter())`` marks (``--timings``), and the results document written (``results.json``)."""
+    """What :func:`build_report` did: the studies (in the scenarios' order), the report folder, whether every built-in
+    section passed (:data:`BUILT_IN`: the determination studies with seed 002's tables, the league; True when none is
+    in the report), the phases' ``(name, time.perf_counter())`` marks (``--timings``), and the results document
+    written (``results.json``)."""
 
     studies: list
     folder: Path
-    determination_passed: bool = True
+    sections_passed: bool = True
     marks: list = field(default_factory=list)
     document: dict = field(default_factory=dict)  # the report's results.json, as written
 
@@ -62,7 +63,7 @@ class ReportOutcome:
         """The report's outcome (:func:`xcheck.results.outcome_of` its studies' and sections')."""
         from ..results import outcome_of
 
-        return outcome_of([st.outcome for st in self.studies] + ([] if self.determination_passed else ["FAILED"]))
+        return outcome_of([st.outcome for st in self.studies] + ([] if self.sections_passed else ["FAILED"]))
 
     @property
     def passed(self) -> bool:
@@ -107,8 +108,7 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
         check_output_dir(out, "--out")
         marks.append(("scenarios read", time.perf_counter()))
         figures = _Figures(pool, quick) if pool is not None else None
-        determinations = _start_determinations(scenarios, pool)
-        league = _start_league(scenarios, pool, quick)
+        begun = [(make, start(scenarios, pool, quick)) for start, make in BUILT_IN]  # their work beside the studies
         studies = run_studies(scenarios, quick=quick, progress=progress, pool=pool, workers=workers,
                               on_study=figures.submit if figures else None, here=pool is not None,
                               idle=figures.draw_one_here if figures else None)
@@ -119,19 +119,17 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
             from ..bench import run_bench as measure
 
             bench = measure(quick=quick, repeat=1)
-        determined = determination_section(determinations.values()) if determinations else None
-        league_sec = _league_section(league)
+        built = [section for make, work in begun if (section := make(work)) is not None]
         folder = write_report(studies, out, throughput=throughput_rows(studies) + (bench or []),
                               wall_time=time.perf_counter() - t0, quick=quick, pool=pool,
                               figures=figures.futures if figures else None,
                               trajectories=trajectories, marks=marks,
-                              sections=_all_sections([determined, league_sec], sections), document=document)
+                              sections=_all_sections(built, sections), document=document)
         if written is not None:
             written(folder)
     marks.append(("workers stopped", time.perf_counter()))
     return ReportOutcome(studies=studies, folder=folder, marks=marks, document=document,
-                         determination_passed=(determined is None or determined.passed)
-                         and (league_sec is None or league_sec.passed))
+                         sections_passed=all(section.passed for section in built))
 
 
 class _Figures:
@@ -176,7 +174,7 @@ class _Figures:
         return True
 
 
-def _start_determinations(scenarios, pool) -> dict:
+def _start_determinations(scenarios, pool, quick: bool) -> dict:
     """Each scenario's ``[determination]`` study with its figures, started in the pool (or run here)."""
     from .determination import determination_job
 
@@ -218,6 +216,10 @@ def _start_league(scenarios, pool, quick: bool):
                    for fn, *args in league_tasks(steps=steps)]
 
 
+def _determination_section(started: dict) -> Section | None:
+    return determination_section(started.values()) if started else None
+
+
 def _league_section(league) -> Section | None:
     if league is None:
         return None
@@ -226,6 +228,13 @@ def _league_section(league) -> Section | None:
     steps, parts = league
     return section([r for part in parts for r in (part.result() if hasattr(part, "result") else part[0](*part[1:]))],
                    steps)
+
+
+#: The report's built-in sections, in their order: ``(start, make)`` — ``start(scenarios, pool, quick)`` submits
+#: their work beside the studies (None where no scenario asks for it), ``make(work)`` is the
+#: :class:`~xcheck.report.render.Section` once it is in (None: not in this report). Every section's verdict joins the
+#: report's by the one rule of :attr:`ReportOutcome.outcome`; a new one is an entry here.
+BUILT_IN = ((_start_determinations, _determination_section), (_start_league, _league_section))
 
 
 def _all_sections(first, sections):
