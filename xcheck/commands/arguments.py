@@ -78,20 +78,32 @@ def workers_arg(workers: int | None, ctx) -> int | None:
     return workers
 
 
+def _opt_in(names, what: str) -> None:
+    """Each of ``names`` an opt-in engine that is installed, or a refusal naming ``what`` (``--with``, the
+    variable)."""
+    from ..engines import ENGINES, available
+
+    opt_in = [n for n, e in ENGINES.items() if e.opt_in]
+    for name in names:
+        if name not in opt_in:
+            raise UsageError(f"{what}: {name!r} is not an opt-in engine (expected some of {', '.join(opt_in)}); the "
+                             "others run whenever they are installed")
+        if not available(name):
+            raise UsageError(f"{what}: {name} is not installed here: pip install 'xcheck[{name}]'")
+
+
 def engine_variables() -> None:
     """``$XCHECK_WITH`` and ``$XCHECK_WITHOUT`` as ``--with`` is: names of engines (opt-in ones for the first,
     installed), or a refusal naming the variable (a typo once left MJX out silently)."""
-    from ..engines import ENGINES, WITH_VARIABLE, WITHOUT_VARIABLE, available
+    from ..engines import ENGINES, WITH_VARIABLE, WITHOUT_VARIABLE
 
     for variable in (WITH_VARIABLE, WITHOUT_VARIABLE):
         text = os.environ.get(variable, "")
-        for name in [n.strip() for n in text.split(",") if n.strip()]:
-            if variable == WITH_VARIABLE and not (name in ENGINES and ENGINES[name].opt_in):
-                raise UsageError(f"${variable}={text!r}: {name!r} is not an opt-in engine (expected some of "
-                                 f"{', '.join(n for n, e in ENGINES.items() if e.opt_in)})")
-            if variable == WITH_VARIABLE and not available(name):
-                raise UsageError(f"${variable}={text!r}: {name} is not installed here: pip install 'xcheck[{name}]'")
-            if variable == WITHOUT_VARIABLE and (name not in ENGINES or name == "mujoco"):
+        names = [n.strip() for n in text.split(",") if n.strip()]
+        if variable == WITH_VARIABLE:
+            _opt_in(names, f"${variable}={text!r}")
+        for name in names if variable == WITHOUT_VARIABLE else ():
+            if name not in ENGINES or name == "mujoco":
                 raise UsageError(f"${variable}={text!r}: {name!r} is not an optional engine (expected some of "
                                  f"{', '.join(n for n in ENGINES if n != 'mujoco')})")
 
@@ -101,16 +113,10 @@ def with_engines(text: str | None) -> None:
     through ``$XCHECK_WITH``; refused, naming what to install, where the engine is not installed."""
     if not text:
         return
-    from ..engines import ENGINES, WITH_VARIABLE, available
+    from ..engines import WITH_VARIABLE
 
     names = csv_list(text, str, "--with")
-    opt_in = [n for n, e in ENGINES.items() if e.opt_in]
-    for name in names:
-        if name not in opt_in:
-            raise UsageError(f"--with: {name!r} is not an opt-in engine (expected one of {', '.join(opt_in)}); "
-                             "the others run whenever they are installed")
-        if not available(name):
-            raise UsageError(f"--with {name}: {name} is not installed here: pip install 'xcheck[{name}]'")
+    _opt_in(names, "--with")
     os.environ[WITH_VARIABLE] = ",".join(names)
 
 

@@ -88,10 +88,8 @@ def _resolve_torque(torque, duration):
 
 def _kernel_args(info: Method, sequence: str, *, dt, n, last_h, torque, save_every) -> KernelArgs:
     A, b, c = info.tableau.arrays()
-    use_hat = info.dexp_A is not None
     tk, P, T = torque
-    return KernelArgs(A=A, b=b, c=c, Ahat=np.array(info.dexp_A, dtype=float) if use_hat else A, use_hat=use_hat,
-                      dt=float(dt), n=int(n), last_h=float(last_h), tk=tk, tP=P, tT=T,
+    return KernelArgs(A=A, b=b, c=c, dt=float(dt), n=int(n), last_h=float(last_h), tk=tk, tP=P, tT=T,
                       axes=np.array(rot._check_seq(sequence), dtype=np.int64), sing_tol=SINGULAR_TOL,
                       bjorck_tol=BJORCK_TOL, save_every=int(save_every))
 

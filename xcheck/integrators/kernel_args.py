@@ -18,8 +18,6 @@ class KernelArgs(NamedTuple):
     A: np.ndarray  # (s, s) Butcher matrix
     b: np.ndarray  # (s,) weights
     c: np.ndarray  # (s,) nodes
-    Ahat: np.ndarray  # (s, s) the dexp-argument matrix of the printed algorithm 172 (else A)
-    use_hat: bool
     dt: float  # [s]
     n: int  # steps
     last_h: float  # the last step's length [s]

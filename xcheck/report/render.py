@@ -22,17 +22,7 @@ from ..base.files import (
 from ..results import outcome_of
 from ..trajectory import step_label
 from ..versions import machine, versions
-from .document import (
-    Cell,
-    Contents,
-    Figure,
-    Heading,
-    Para,
-    Table,
-    Verdict,
-    to_html,
-    to_markdown,
-)
+from .document import Cell, Contents, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
 
 __all__ = ["write_report", "draw_figures", "report_document", "report_results", "with_sections", "Section",
            "StampedFolder", "REPORT_SCHEMA", "verdict_of", "fmt"]

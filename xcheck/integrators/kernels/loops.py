@@ -30,7 +30,7 @@ def run(scheme, step_fn, a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev):
     row = 1
     until_save = a.save_every
     n, dt, last_h, save_every, bjorck_tol = a.n, a.dt, a.last_h, a.save_every, a.bjorck_tol
-    A, b, c, Ahat, use_hat = a.A, a.b, a.c, a.Ahat, a.use_hat  # the record unpacked once per run
+    A, b, c = a.A, a.b, a.c  # the record unpacked once per run
     tk, tP, tT, axes, sing_tol = a.tk, a.tP, a.tT, a.axes, a.sing_tol
     for step in range(n):
         h = dt if step < n - 1 else last_h
@@ -38,7 +38,7 @@ def run(scheme, step_fn, a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev):
         before_step(scheme, y, bjorck_tol, work)
         for l in range(m):
             y_prev[l] = y[l]
-        status = step_fn(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, tP, tT, axes, sing_tol,
+        status = step_fn(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, sing_tol,
                          work)
         if status == OK:
             after_step(scheme, y, bjorck_tol, work)

@@ -99,8 +99,7 @@ def rk_step_source(name: str, A, b, c, Ahat=None) -> str:
     as ``yhat``. ``y`` is left unchanged if a stage fails. The arithmetic is the stage sums' own, left to right:
     for RK4 the numbers of the hand-written loop it replaced, bit for bit."""
     s = len(b)
-    lines = [f"def {name}(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, tP, tT, axes, sing_tol,",
-             "        work):",
+    lines = [f"def {name}(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, sing_tol, work):",
              "    m = STATE_SIZE[scheme]",
              "    first = FIRST[scheme]",
              "    for l in range(m):  # the first components are constant in the step (a reference quaternion)",
@@ -168,7 +167,7 @@ CF4_BETA = np.array([[3.0, 2.0, 2.0, -1.0], [-1.0, 2.0, 2.0, 3.0]]) / 12.0
 
 
 @ijit
-def cf4_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, Ahat, use_hat, tk, tP, tT, axes, sing_tol, work):
+def cf4_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, sing_tol, work):
     """The commutator-free Lie group method of order 4 (Celledoni, Marthinsen and Owren 2003, their CF4) for
     ``p' = p ∘ w`` (body rates act on the right) and Euler's equation, on the LIE state. With ``k_i`` the
     body rate and ``F_i`` the rate derivative of stage i::
