@@ -470,3 +470,31 @@ def test_a_cold_compile_cache_is_seen_and_warmed(tmp_path):
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=300)
     assert out.stdout.split() == ["True", "False"], out.stderr[-2000:]
     assert list(tmp_path.rglob("loops.run_formulation_2__*.nbi"))
+
+
+def test_every_scheme_states_its_layout_and_its_state_round_trips():
+    """Truth: each scheme's declaration. Its encoded state has the declared layout's length, the parts are consecutive,
+    and decoding gives back the attitude (up to sign) and the body rate to 1e-15; a held part that is not the first
+    is refused when the scheme is declared."""
+    from xcheck.integrators import kernels as K
+    from xcheck.integrators.kernels.registry import Scheme, declare, layout, size_of
+
+    rng = np.random.default_rng(5)
+    q0 = rng.normal(size=(6, 4))
+    q0 /= np.linalg.norm(q0, axis=1, keepdims=True)
+    q0 *= np.sign(q0[:, :1])
+    w0 = rng.normal(size=(6, 3))
+    for scheme in K.SCHEMES:
+        parts = list(scheme.state)
+        assert parts[0].start == 0 and all(a.stop == b.start for a, b in zip(parts, parts[1:])), scheme.name
+        y0 = scheme.encode(q0, w0, "313")
+        assert y0.shape == (6, scheme.size) == (6, size_of(scheme.state)), scheme.name
+        assert scheme.first == (4 if scheme.held else 0), scheme.name
+        q, w, _ = scheme.decode(y0, "313")
+        np.testing.assert_allclose(np.abs(np.sum(q * q0, axis=1)), 1.0, atol=1e-15, err_msg=scheme.name)
+        np.testing.assert_allclose(w, w0, atol=1e-15, err_msg=scheme.name)
+    assert layout(p=4, u=3, w=3).w == slice(7, 10)
+    with pytest.raises(ValueError, match="held part 'w' must be the state's first part"):
+        declare(Scheme("bad", state=layout(p=4, w=3), held="w", deriv=None, encode=None, decode=None))
+    with pytest.raises(ValueError, match="positive sizes"):
+        layout(p=0)

@@ -12,9 +12,12 @@ The files say what they hold:
     _variant.py    compiled or interpreted: what that changes (jit, the torque's evaluation)
 
 A *scheme* (:class:`Scheme`, registered with :func:`declare`) is everything the kernels need to know about a
-method: its state layout (size, the first integrated component), its stage derivative, optional hooks before
-and after a step (chart changes, projections), the kind of step (the tableau stage loop, or the commutator-free
-step), the scratch space it uses, and how ``(q, omega)`` become its state and back (encode, decode).
+method: its state's layout (:func:`layout`: named parts, ``LIE_STATE = layout(p_n=4, u=3, w=3)``, the part held
+constant in a step named), its stage derivative, optional hooks before and after a step (chart changes,
+projections), the kind of step (the tableau stage loop, or the commutator-free step), the layout of the scratch its
+derivative, hooks and step share, and how ``(q, omega)`` become its state and back (encode, decode). The code reads
+the parts by name (``y[S.w]``, ``work[W.tau]``: constants to the compiler, as cheap as ``y[7:10]``); the sizes the
+shared loops need (``STATE_SIZE``, ``FIRST``, ``WORK_SIZE`` by scheme id) are read from the declarations.
 :data:`xcheck.integrators.METHODS` names the schemes and gives each its tableau, order and seed. Adding a method
 with a new state layout is its section in ``schemes.py``, ending in ``declare(...)``, one ``METHODS`` entry and the
 README's table; a method on an existing scheme with another tableau is one ``METHODS`` entry.
@@ -69,10 +72,10 @@ VARIANT = globals().get("VARIANT", "compiled")
 
 from .lanes import LANES  # noqa: E402
 from .loops import entry_points, run_many, run_one, scratch, step_of  # noqa: E402
-from .registry import NONFINITE, OK, SCHEMES, SINGULAR, Scheme, declare  # noqa: E402
+from .registry import NONFINITE, OK, SCHEMES, SINGULAR, Scheme, declare, layout, size_of  # noqa: E402
 from .schemes import CF4, DCM, EULER, F1, F2, FIRST, GIBBS, LIE, MRP, ROTVEC, STATE_SIZE, WORK_SIZE  # noqa: E402
 from .steps import RK4_STEP, rk_step_for, rk_step_source  # noqa: E402
 
 __all__ = ["VARIANT", "LANES", "entry_points", "run_many", "run_one", "scratch", "step_of", "NONFINITE", "OK",
-           "SCHEMES", "SINGULAR", "Scheme", "declare", "CF4", "DCM", "EULER", "F1", "F2", "FIRST", "GIBBS", "LIE",
-           "MRP", "ROTVEC", "STATE_SIZE", "WORK_SIZE", "RK4_STEP", "rk_step_for", "rk_step_source"]
+           "SCHEMES", "SINGULAR", "Scheme", "declare", "layout", "size_of", "CF4", "DCM", "EULER", "F1", "F2", "FIRST",
+           "GIBBS", "LIE", "MRP", "ROTVEC", "STATE_SIZE", "WORK_SIZE", "RK4_STEP", "rk_step_for", "rk_step_source"]

@@ -222,10 +222,10 @@ def dcm_to_quat(R, out):
 
 
 @jit
-def bjorck(R, tol, work):
+def bjorck(R, tol, XtX, Y):
     """Björck-Bowie orthogonalisation of a row-major 3x3 ``R`` in place (seed 000 §1.7.1):
-    ``X <- 1.5 X - 0.5 X X^T X`` until ``|X^T X - I| <= tol`` (max-norm), at most 10 iterations."""
-    XtX, Y = work[0:9], work[9:18]
+    ``X <- 1.5 X - 0.5 X X^T X`` until ``|X^T X - I| <= tol`` (max-norm), at most 10 iterations; ``XtX`` and ``Y``
+    are 9 floats of scratch each."""
     for _ in range(10):
         err = 0.0
         for i in range(3):

@@ -8,7 +8,7 @@ import numpy as np
 from ._variant import ijit, jit, torque_eval, torque_needs_attitude
 from .registry import NONFINITE, OK, SERIES_ANGLE
 from .helpers import dexpinv_apply, dexpinv_coef_series, dexpinv_coef_trig, euler_rates, exp_coefs_series, exp_coefs_trig, f2_kinematics, qmul_s
-from .schemes import F2, FIRST, LIE, STATE_SIZE
+from .schemes import F2, F2_STATE, FIRST, LIE, LIE_STATE, STATE_SIZE
 
 
 # ------------------------------------------------------------------------------------------------
@@ -26,6 +26,9 @@ LANES = 128
 #: The classical RK4's weights b = (1/6, 1/3, 1/3, 1/6) as floats (the lanes' weighted sum; the generated step's
 #: literals are the same floats).
 RK4_B0, RK4_B1 = 1.0 / 6.0, 1.0 / 3.0
+#: The rows of the block's state are the components of the schemes' states (:data:`F2_STATE`, :data:`LIE_STATE`),
+#: written out component by component in the scalar forms below; the rate's first row:
+F2_W, LIE_W = F2_STATE.w.start, LIE_STATE.w.start
 
 
 @ijit
@@ -82,11 +85,11 @@ def lanes_attitude_f2(S, k, q):
 @jit
 def lanes_stage_f2(t, S, D, IL, JL, shared, k0, tk, tP, tT, tau, C, q, out, nb):
     """:func:`deriv_formulation2` for every body of the block."""
-    lanes_torque(t, S, lanes_attitude_f2, tk, tP, tT, tau, q, out, nb, 4)
+    lanes_torque(t, S, lanes_attitude_f2, tk, tP, tT, tau, q, out, nb, F2_W)
     for k in range(nb):
         D[0, k], D[1, k], D[2, k], D[3, k] = f2_kinematics(S[0, k], S[1, k], S[2, k], S[3, k], S[4, k], S[5, k],
                                                            S[6, k])
-    lanes_rates(S, D, IL, JL, shared, k0, tau, nb, 4)
+    lanes_rates(S, D, IL, JL, shared, k0, tau, nb, F2_W)
 
 
 @jit
@@ -130,7 +133,7 @@ def lanes_attitude_lie(S, k, q):
 def lanes_stage_lie(t, S, D, IL, JL, shared, k0, tk, tP, tT, tau, C, q, out, nb):
     """:func:`deriv_lie` (``yhat`` = ``y``: lie-rkmk4) for every body of the block: the dexp^-1 coefficient by
     its series for every body, again with the cotangent for those beyond its range."""
-    lanes_torque(t, S, lanes_attitude_lie, tk, tP, tT, tau, q, out, nb, 7)
+    lanes_torque(t, S, lanes_attitude_lie, tk, tP, tT, tau, q, out, nb, LIE_W)
     for k in range(nb):
         a2 = S[4, k] * S[4, k] + S[5, k] * S[5, k] + S[6, k] * S[6, k]
         C[4, k] = a2
@@ -140,7 +143,7 @@ def lanes_stage_lie(t, S, D, IL, JL, shared, k0, tk, tP, tT, tau, C, q, out, nb)
             C[0, k] = dexpinv_coef_trig(C[4, k])
     for k in range(nb):
         D[4, k], D[5, k], D[6, k] = dexpinv_apply(S[4, k], S[5, k], S[6, k], S[7, k], S[8, k], S[9, k], C[0, k])
-    lanes_rates(S, D, IL, JL, shared, k0, tau, nb, 7)
+    lanes_rates(S, D, IL, JL, shared, k0, tau, nb, LIE_W)
 
 
 @jit

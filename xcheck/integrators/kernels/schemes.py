@@ -9,21 +9,25 @@ import numpy as np
 from ... import rotations as rot
 from ...trajectory import continuous_quaternions
 from ._variant import ijit, jit, torque_eval, torque_needs_attitude
-from .registry import OK, SCHEMES, SINGULAR, Scheme, declare
+from .registry import OK, SCHEMES, SINGULAR, Scheme, declare, layout
 from .helpers import GT_s, G_s, bjorck, cross, dcm_to_quat, dexpinv_minus, dot3, euler_quat, f2_kinematics, gibbs_quat, qmul, quat_exp, rigid_body_rates, rotate_about_axis_T
 
 
 # ------------------------------------------------------------------------------------------------
 # EULER: RK4 on Euler angles (seed 001 appendix A)
 # ------------------------------------------------------------------------------------------------
+EULER_STATE = layout(angles=3, w=3)
+EULER_WORK = layout(tau=3, q=4, e=4, c1=3, c2=3, c3=3, tmp=3, r=3)
+
+
 @ijit
 def deriv_euler(t, y, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work):
     """RK4 on (Euler angles, w) as seed 001's ``cinversa_euler``, for any sequence: the angle rates are
     ``J^-1 w`` with ``w = J angle'``; J's columns are ``Rc^T Rb^T e_a``, ``Rc^T e_b``, ``e_c``."""
-    ang = y[0:3]
-    w = y[3:6]
-    tau, q, e = work[0:3], work[3:7], work[7:11]
-    c1, c2, c3, tmp, r = work[11:14], work[14:17], work[17:20], work[20:23], work[23:26]
+    S, W = EULER_STATE, EULER_WORK
+    ang, w = y[S.angles], y[S.w]
+    tau, q, e = work[W.tau], work[W.q], work[W.e]
+    c1, c2, c3, tmp, r = work[W.c1], work[W.c2], work[W.c3], work[W.tmp], work[W.r]
     cb, sb = np.cos(ang[1]), np.sin(ang[1])
     cc, sc = np.cos(ang[2]), np.sin(ang[2])
     c3[0] = c3[1] = c3[2] = 0.0
@@ -47,7 +51,7 @@ def deriv_euler(t, y, dy, I, Iinv, tk, tP, tT, axes, sing_tol, work):
     dy[2] = dot3(r, w) / det
     if torque_needs_attitude(tk, tP):
         euler_quat(axes, ang, q, e)
-    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dy[3:6])
+    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dy[S.w])
     return OK
 
 
@@ -67,22 +71,27 @@ def positive_w(q):
 def euler_rows_to_quat(y, axes, q, e):
     """The quaternions (``w >= 0``, as xcheck.rotations.euler_to_quat) of the Euler-angle rows of ``y``."""
     for r in range(y.shape[0]):
-        euler_quat(axes, y[r, 0:3], q[r], e)
+        euler_quat(axes, y[r, EULER_STATE.angles], q[r], e)
         positive_w(q[r])
 
 
 def _dec_euler(y, seq):
     q = np.empty((len(y), 4))
     euler_rows_to_quat(np.ascontiguousarray(y), np.array(rot._check_seq(seq), dtype=np.int64), q, np.empty(4))
-    return continuous_quaternions(q), y[:, 3:6], {"euler": y[:, 0:3].copy()}
+    return continuous_quaternions(q), y[:, EULER_STATE.w], {"euler": y[:, EULER_STATE.angles].copy()}
 
 
-EULER = declare(Scheme("euler", size=6, deriv=deriv_euler, encode=_enc_euler, decode=_dec_euler, work=26))
+EULER = declare(Scheme("euler", state=EULER_STATE, deriv=deriv_euler, encode=_enc_euler, decode=_dec_euler,
+                       work=EULER_WORK))
 
 
 # ------------------------------------------------------------------------------------------------
 # F1: seed 004 Formulation I (§2.3)
 # ------------------------------------------------------------------------------------------------
+F1_STATE = layout(p=4, pdot=4)
+F1_WORK = layout(tau=3, w=3)
+
+
 @ijit
 def deriv_formulation1(t, y, dy, I, Iinv, tk, tP, tT, work):
     """Seed 004 Formulation I: ``[2 I' G; p^T] p'' = [t' - 4 G G'^T I' G p'; -p'^T p']`` (eq. 154)
@@ -92,8 +101,8 @@ def deriv_formulation1(t, y, dy, I, Iinv, tk, tP, tT, work):
     (``G G^T = |p|^2 I3``, ``G p = 0``, eq. 95 and 98), so the solve is exact in closed form:
     ``p'' = (G^T (1/2 I'^-1 r1) + p r2) / |p|^2``.
     """
-    p = y[0:4]
-    tau, w = work[0:3], work[3:6]
+    p = y[F1_STATE.p]
+    tau, w = work[F1_WORK.tau], work[F1_WORK.w]
     e0, e1, e2, e3 = y[0], y[1], y[2], y[3]
     d0, d1, d2, d3 = y[4], y[5], y[6], y[7]
     g0, g1, g2 = G_s(e0, e1, e2, e3, d0, d1, d2, d3)  # G(p) p' (eq. 94)
@@ -144,26 +153,28 @@ def _enc_f1(q0, w0, seq):
 
 
 def _dec_f1(y, seq):
-    p, pd = y[:, 0:4], y[:, 4:8]
+    p, pd = y[:, F1_STATE.p], y[:, F1_STATE.pdot]
     omega = 2 * rot.quat_mul(rot.quat_conj(p), pd)[:, 1:]  # w' = 2 G(p) p' (eq. 140)
     return p.copy(), omega, {}
 
 
-F1 = declare(Scheme("formulation-1", size=8, deriv=deriv_formulation1, after_step=project_formulation1,
-                    encode=_enc_f1, decode=_dec_f1, work=26))
+F1 = declare(Scheme("formulation-1", state=F1_STATE, deriv=deriv_formulation1, after_step=project_formulation1,
+                    encode=_enc_f1, decode=_dec_f1, work=F1_WORK))
 
 
 # ------------------------------------------------------------------------------------------------
 # F2: seed 004 Formulation II (§2.4)
 # ------------------------------------------------------------------------------------------------
+F2_STATE = layout(p=4, w=3)
+F2_WORK = layout(tau=3)
+
+
 @ijit
 def deriv_formulation2(t, y, dy, I, Iinv, tk, tP, tT, work):
     """Seed 004 Formulation II: ``p' = 1/2 G(p)^T w'`` (eq. 162), ``w' = I'^-1 (t' - w' x I' w')`` (eq. 158)."""
-    p = y[0:4]
-    w = y[4:7]
+    p, w = y[F2_STATE.p], y[F2_STATE.w]
     dy[0], dy[1], dy[2], dy[3] = f2_kinematics(y[0], y[1], y[2], y[3], y[4], y[5], y[6])
-    tau = work[0:3]
-    rigid_body_rates(t, p, w, I, Iinv, tk, tP, tT, tau, dy[4:7])
+    rigid_body_rates(t, p, w, I, Iinv, tk, tP, tT, work[F2_WORK.tau], dy[F2_STATE.w])
     return OK
 
 
@@ -180,16 +191,24 @@ def _enc_f2(q0, w0, seq):
 
 
 def _dec_f2(y, seq):
-    return y[:, 0:4].copy(), y[:, 4:7].copy(), {}
+    return y[:, F2_STATE.p].copy(), y[:, F2_STATE.w].copy(), {}
 
 
-F2 = declare(Scheme("formulation-2", size=7, deriv=deriv_formulation2, after_step=normalise_formulation2,
-                    encode=_enc_f2, decode=_dec_f2, work=3))
+F2 = declare(Scheme("formulation-2", state=F2_STATE, deriv=deriv_formulation2, after_step=normalise_formulation2,
+                    encode=_enc_f2, decode=_dec_f2, work=F2_WORK))
 
 
 # ------------------------------------------------------------------------------------------------
 # LIE: seed 004 §2.5, the Lie-group method on S3 with RK on so(3); CF4 on the same state
 # ------------------------------------------------------------------------------------------------
+#: The Lie-group state: the step's base attitude (held in the step), the so(3) increment u, the rate.
+LIE_STATE = layout(p_n=4, u=3, w=3)
+LIE_WORK = layout(tau=3, p=4, e=4)
+#: CF4's scratch: LIE's derivative's, then the step's own (the stage's increment v, its exponential, stage 2's
+#: attitude).
+CF4_WORK = layout(tau=3, p=4, e=4, v=3, ev=4, p2=4)
+
+
 @ijit
 def deriv_lie(t, y, yhat, dy, I, Iinv, tk, tP, tT, work):
     """Seed 004 §2.5: ``u' = dexp^-1_{-u}(w)`` (eq. 166-167) on so(3), the attitude of a stage is
@@ -197,65 +216,68 @@ def deriv_lie(t, y, yhat, dy, I, Iinv, tk, tP, tT, work):
     the same as ``y`` for RKMK4 (``lie-rkmk4``, order 4); the printed algorithm 172 uses 1/2 k1 in the
     third stage (``lie-thesis-172``), which measures order 2 (see tableau.THESIS_172_DEXP_A). At ``u = 0``
     (every stage of CF4) ``u' = w`` and the stage's attitude is ``p_n`` itself, exactly."""
-    u = y[4:7]
-    w = y[7:10]
-    dexpinv_minus(yhat[4:7], w, dy[4:7])
-    tau, p, e = work[0:3], work[3:7], work[7:11]
+    S, W = LIE_STATE, LIE_WORK
+    u, w = y[S.u], y[S.w]
+    dexpinv_minus(yhat[S.u], w, dy[S.u])
+    tau, p, e = work[W.tau], work[W.p], work[W.e]
     if torque_needs_attitude(tk, tP):
         quat_exp(u, e)  # the stage's attitude p_n ∘ exp_S3(u) (eq. 171)
-        qmul(y[0:4], e, p)
-    rigid_body_rates(t, p, w, I, Iinv, tk, tP, tT, tau, dy[7:10])
+        qmul(y[S.p_n], e, p)
+    rigid_body_rates(t, p, w, I, Iinv, tk, tP, tT, tau, dy[S.w])
     return OK
 
 
 @ijit
 def lie_update(y, work):
     """Seed 004 algorithm 172: ``p_out = p_0 ∘ exp_S3(u)``; the unit norm holds by construction."""
-    e = work[0:4]
-    quat_exp(y[4:7], e)
-    qmul(y[0:4], e, y[0:4])
-    y[4] = y[5] = y[6] = 0.0
+    e = work[LIE_WORK.e]
+    quat_exp(y[LIE_STATE.u], e)
+    qmul(y[LIE_STATE.p_n], e, y[LIE_STATE.p_n])
+    y[4] = y[5] = y[6] = 0.0  # u
 
 
 def _enc_local(q0, w0, seq):
-    """A local-chart state ``q_ref(4), v(3) = 0, w(3)``."""
+    """A local-chart state ``q_ref(4), v(3) = 0, w(3)`` (:data:`LIE_STATE`, :data:`CHART_STATE`)."""
     return np.concatenate([q0, np.zeros_like(w0), w0], axis=-1)
 
 
 def _dec_lie(y, seq):
-    return y[:, 0:4].copy(), y[:, 7:10].copy(), {}
+    return y[:, LIE_STATE.p_n].copy(), y[:, LIE_STATE.w].copy(), {}
 
 
-LIE = declare(Scheme("lie", size=10, first=4, deriv=deriv_lie, after_step=lie_update, encode=_enc_local,
-                     decode=_dec_lie, work=11))
+LIE = declare(Scheme("lie", state=LIE_STATE, held="p_n", deriv=deriv_lie, after_step=lie_update,
+                     encode=_enc_local, decode=_dec_lie, work=LIE_WORK))
 #: The commutator-free method of order 4 (:func:`cf4_step`) on the LIE state: its stages all have u = 0.
-CF4 = declare(Scheme("lie-cf4", size=10, first=4, deriv=deriv_lie, step="cf4", encode=_enc_local,
-                     decode=_dec_lie, work=31))
+CF4 = declare(Scheme("lie-cf4", state=LIE_STATE, held="p_n", deriv=deriv_lie, step="cf4", encode=_enc_local,
+                     decode=_dec_lie, work=CF4_WORK))
 
 
 # ------------------------------------------------------------------------------------------------
 # DCM: RK4 on R' = R [w x] with Björck-Bowie (seed 000)
 # ------------------------------------------------------------------------------------------------
+DCM_STATE = layout(R=9, w=3)  # R row-major
+DCM_WORK = layout(tau=3, q=4, XtX=9, Y=9)  # (XtX, Y: Björck-Bowie's)
+
+
 @ijit
 def deriv_dcm(t, y, dy, I, Iinv, tk, tP, tT, work):
     """``R' = R [w x]`` (seed 000 eq. 1.7 for the body -> world matrix; seed 004 eq. 131)."""
-    R = y[0:9]
-    w = y[9:12]
+    R, w = y[DCM_STATE.R], y[DCM_STATE.w]
     for r in range(3):
         x0, x1, x2 = R[3 * r], R[3 * r + 1], R[3 * r + 2]
         dy[3 * r] = x1 * w[2] - x2 * w[1]
         dy[3 * r + 1] = x2 * w[0] - x0 * w[2]
         dy[3 * r + 2] = x0 * w[1] - x1 * w[0]
-    tau, q = work[0:3], work[3:7]
+    q = work[DCM_WORK.q]
     if torque_needs_attitude(tk, tP):
         dcm_to_quat(R, q)
-    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dy[9:12])
+    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, work[DCM_WORK.tau], dy[DCM_STATE.w])
     return OK
 
 
 @jit
 def orthonormalise_dcm(y, bjorck_tol, work):
-    bjorck(y[0:9], bjorck_tol, work)
+    bjorck(y[DCM_STATE.R], bjorck_tol, work[DCM_WORK.XtX], work[DCM_WORK.Y])
 
 
 def _enc_dcm(q0, w0, seq):
@@ -268,7 +290,7 @@ def dcm_rows_to_quat(y, q, ortho):
     """Decode the DCM rows of ``y`` (n, 12): their quaternions (``w >= 0``, as xcheck.rotations.dcm_to_quat) and
     ``max |R^T R - I|``, in one compiled pass (numpy's batched 3x3 products cost more than the integration)."""
     for r in range(y.shape[0]):
-        R = y[r, 0:9]
+        R = y[r, DCM_STATE.R]
         dcm_to_quat(R, q[r])
         positive_w(q[r])
         err = 0.0
@@ -282,83 +304,89 @@ def dcm_rows_to_quat(y, q, ortho):
 def _dec_dcm(y, seq):
     q, ortho = np.empty((len(y), 4)), np.empty(len(y))
     dcm_rows_to_quat(np.ascontiguousarray(y), q, ortho)
-    return continuous_quaternions(q), y[:, 9:12].copy(), {"orthogonality": ortho}
+    return continuous_quaternions(q), y[:, DCM_STATE.w].copy(), {"orthogonality": ortho}
 
 
-DCM = declare(Scheme("dcm", size=12, deriv=deriv_dcm, after_step=orthonormalise_dcm, encode=_enc_dcm,
-                     decode=_dec_dcm, work=18))
+DCM = declare(Scheme("dcm", state=DCM_STATE, deriv=deriv_dcm, after_step=orthonormalise_dcm, encode=_enc_dcm,
+                     decode=_dec_dcm, work=DCM_WORK))
 
 
 # ------------------------------------------------------------------------------------------------
 # GIBBS and ROTVEC: global charts re-centred before their singularities (seed 000)
 # ------------------------------------------------------------------------------------------------
+#: A global chart's state: the reference attitude (held in the step), the chart's parameter v (the Gibbs vector g
+#: or the rotation vector phi), the rate.
+CHART_STATE = layout(q_ref=4, v=3, w=3)
+CHART_WORK = layout(tau=3, q=4, e=4)
+
+
 @ijit
 def deriv_gibbs(t, y, dy, I, Iinv, tk, tP, tT, work):
     """Gibbs-vector kinematics ``g' = 1/2 (I + [g x] + g g^T) w`` (seed 000 §1.4.2, with the skew-term sign
     of its own §1.4.1 DCM; see xcheck.rotations.gibbs_rate); attitude ``q_ref ⊗ q(g)``."""
-    g = y[4:7]
-    w = y[7:10]
+    S, W = CHART_STATE, CHART_WORK
+    g, w = y[S.v], y[S.w]
     gw = g[0] * w[0] + g[1] * w[1] + g[2] * w[2]
     dy[4] = 0.5 * (w[0] + (g[1] * w[2] - g[2] * w[1]) + g[0] * gw)
     dy[5] = 0.5 * (w[1] + (g[2] * w[0] - g[0] * w[2]) + g[1] * gw)
     dy[6] = 0.5 * (w[2] + (g[0] * w[1] - g[1] * w[0]) + g[2] * gw)
-    tau, q, e = work[0:3], work[3:7], work[7:11]
+    tau, q, e = work[W.tau], work[W.q], work[W.e]
     if torque_needs_attitude(tk, tP):
         gibbs_quat(g, e)
-        qmul(y[0:4], e, q)
-    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dy[7:10])
+        qmul(y[S.q_ref], e, q)
+    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dy[S.w])
     return OK
 
 
 @ijit
 def deriv_rotvec(t, y, dy, I, Iinv, tk, tP, tT, work):
     """Rotation-vector kinematics with the non-commutativity term (seed 000 §1.5.2); attitude ``q_ref ⊗ exp(phi)``."""
-    phi = y[4:7]
-    w = y[7:10]
-    dexpinv_minus(phi, w, dy[4:7])
-    tau, q, e = work[0:3], work[3:7], work[7:11]
+    S, W = CHART_STATE, CHART_WORK
+    phi, w = y[S.v], y[S.w]
+    dexpinv_minus(phi, w, dy[S.v])
+    tau, q, e = work[W.tau], work[W.q], work[W.e]
     if torque_needs_attitude(tk, tP):
         quat_exp(phi, e)
-        qmul(y[0:4], e, q)
-    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dy[7:10])
+        qmul(y[S.q_ref], e, q)
+    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dy[S.w])
     return OK
 
 
 @jit
 def recentre(y, limit, to_quat, e):
     """Fold the local chart into the reference quaternion when its parameter exceeds ``limit``."""
-    v = y[4:7]
+    v = y[CHART_STATE.v]
     if v[0] * v[0] + v[1] * v[1] + v[2] * v[2] > limit * limit:
         if to_quat == 0:
             gibbs_quat(v, e)
         else:
             quat_exp(v, e)
-        qmul(y[0:4], e, y[0:4])
-        y[4] = y[5] = y[6] = 0.0
+        qmul(y[CHART_STATE.q_ref], e, y[CHART_STATE.q_ref])
+        y[4] = y[5] = y[6] = 0.0  # v
 
 
 @jit
 def recentre_gibbs(y, work):
-    recentre(y, 1.0, 0, work[0:4])  # |g| = tan(angle/2) > 1: beyond 90 deg from the reference
+    recentre(y, 1.0, 0, work[CHART_WORK.e])  # |g| = tan(angle/2) > 1: beyond 90 deg from the reference
 
 
 @jit
 def recentre_rotvec(y, work):
-    recentre(y, np.pi, 1, work[0:4])  # dexp^-1 is singular at |phi| = 2 pi
+    recentre(y, np.pi, 1, work[CHART_WORK.e])  # dexp^-1 is singular at |phi| = 2 pi
 
 
 def _dec_local(to_quat):
     """Decoder of a local-chart state ``q_ref(4), v(3), w(3)``: attitude ``q_ref ⊗ to_quat(v)``."""
     def decode(y, seq):
-        q = rot.quat_mul(y[:, 0:4], to_quat(y[:, 4:7]))
-        return continuous_quaternions(q), y[:, 7:10].copy(), {}
+        q = rot.quat_mul(y[:, CHART_STATE.q_ref], to_quat(y[:, CHART_STATE.v]))
+        return continuous_quaternions(q), y[:, CHART_STATE.w].copy(), {}
     return decode
 
 
-GIBBS = declare(Scheme("gibbs", size=10, first=4, deriv=deriv_gibbs, before_step=recentre_gibbs,
-                       encode=_enc_local, decode=_dec_local(rot.gibbs_to_quat), work=11))
-ROTVEC = declare(Scheme("rotvec", size=10, first=4, deriv=deriv_rotvec, before_step=recentre_rotvec,
-                        encode=_enc_local, decode=_dec_local(rot.rotvec_to_quat), work=11))
+GIBBS = declare(Scheme("gibbs", state=CHART_STATE, held="q_ref", deriv=deriv_gibbs, before_step=recentre_gibbs,
+                       encode=_enc_local, decode=_dec_local(rot.gibbs_to_quat), work=CHART_WORK))
+ROTVEC = declare(Scheme("rotvec", state=CHART_STATE, held="q_ref", deriv=deriv_rotvec, before_step=recentre_rotvec,
+                        encode=_enc_local, decode=_dec_local(rot.rotvec_to_quat), work=CHART_WORK))
 
 # ------------------------------------------------------------------------------------------------
 # MRP: the modified Rodrigues parameters, as Basilisk integrates its hub's attitude
@@ -374,21 +402,24 @@ def mrp_quat(s, out):
     out[3] = 2.0 * s[2] / n
 
 
+MRP_STATE = layout(s=3, w=3)
+MRP_WORK = layout(tau=3, q=4)
+
+
 @ijit
 def deriv_mrp(t, y, dy, I, Iinv, tk, tP, tT, work):
     """``s' = 1/4 ((1 - |s|^2) I + 2 [s x] + 2 s s^T) w`` (Schaub & Junkins; xcheck.rotations.mrp_rate), the
     kinematics Basilisk's hub integrates."""
-    s = y[0:3]
-    w = y[3:6]
+    s, w = y[MRP_STATE.s], y[MRP_STATE.w]
     s2 = s[0] * s[0] + s[1] * s[1] + s[2] * s[2]
     sw = s[0] * w[0] + s[1] * w[1] + s[2] * w[2]
     dy[0] = 0.25 * ((1.0 - s2) * w[0] + 2.0 * (s[1] * w[2] - s[2] * w[1]) + 2.0 * s[0] * sw)
     dy[1] = 0.25 * ((1.0 - s2) * w[1] + 2.0 * (s[2] * w[0] - s[0] * w[2]) + 2.0 * s[1] * sw)
     dy[2] = 0.25 * ((1.0 - s2) * w[2] + 2.0 * (s[0] * w[1] - s[1] * w[0]) + 2.0 * s[2] * sw)
-    tau, q = work[0:3], work[3:7]
+    q = work[MRP_WORK.q]
     if torque_needs_attitude(tk, tP):
         mrp_quat(s, q)
-    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, tau, dy[3:6])
+    rigid_body_rates(t, q, w, I, Iinv, tk, tP, tT, work[MRP_WORK.tau], dy[MRP_STATE.w])
     return OK
 
 
@@ -405,14 +436,15 @@ def _enc_mrp(q0, w0, seq):
 
 
 def _dec_mrp(y, seq):
-    return continuous_quaternions(rot.mrp_to_quat(y[:, 0:3])), y[:, 3:6].copy(), {}
+    return continuous_quaternions(rot.mrp_to_quat(y[:, MRP_STATE.s])), y[:, MRP_STATE.w].copy(), {}
 
 
-MRP = declare(Scheme("mrp", size=6, deriv=deriv_mrp, after_step=shadow_mrp, encode=_enc_mrp, decode=_dec_mrp,
-                     work=7))
+MRP = declare(Scheme("mrp", state=MRP_STATE, deriv=deriv_mrp, after_step=shadow_mrp, encode=_enc_mrp,
+                     decode=_dec_mrp, work=MRP_WORK))
 
 
-#: Derived from the registry (compile-time constants inside the kernels).
+#: The declarations' sizes by scheme id, read from the registry: compile-time constants of the shared loops (the
+#: entry points name their scheme by its id, a literal).
 STATE_SIZE = tuple(s.size for s in SCHEMES)
 FIRST = tuple(s.first for s in SCHEMES)
-WORK_SIZE = tuple(max(s.work, 1) for s in SCHEMES)
+WORK_SIZE = tuple(s.work_size for s in SCHEMES)

@@ -12,7 +12,7 @@ from ..tableau import RK4
 from ._variant import PYTHON_MODE, ijit, numba, overload
 from .registry import OK, SCHEMES
 from .helpers import qmul, quat_exp
-from .schemes import FIRST, STATE_SIZE  # noqa: F401 (read by the generated steps' source, and the schemes declared first)
+from .schemes import CF4_WORK, FIRST, LIE_STATE, STATE_SIZE  # noqa: F401 (read by the generated steps' source, and the schemes declared first)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -181,22 +181,25 @@ def cf4_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, si
     (:data:`CF4_ALPHA`, :data:`CF4_BETA`). No dexp^-1 is needed, each stage's attitude is a unit quaternion
     by construction, and w follows the classical RK4. The stage derivative is LIE's at u = 0:
     ``K[i, 4:7] = k_i``, ``K[i, 7:10] = F_i``."""
-    v, e, p2 = work[20:23], work[23:27], work[27:31]
-    Y[4] = Y[5] = Y[6] = 0.0
+    v, e, p2 = work[CF4_WORK.v], work[CF4_WORK.ev], work[CF4_WORK.p2]
+    p_n = LIE_STATE.p_n
+    u0, w0 = LIE_STATE.u.start, LIE_STATE.w.start
+    for l in range(3):
+        Y[u0 + l] = 0.0
     for i in range(4):
         for l in range(3):
             acc_v = 0.0
             acc_w = 0.0
             for j in range(i):
-                acc_v += CF4_ALPHA[i, j] * K[j, 4 + l]
-                acc_w += A[i, j] * K[j, 7 + l]
+                acc_v += CF4_ALPHA[i, j] * K[j, u0 + l]
+                acc_w += A[i, j] * K[j, w0 + l]
             v[l] = h * acc_v
-            Y[7 + l] = y[7 + l] + h * acc_w
+            Y[w0 + l] = y[w0 + l] + h * acc_w
         quat_exp(v, e)
         if i == 3:
-            qmul(p2, e, Y[0:4])
+            qmul(p2, e, Y[p_n])
         else:
-            qmul(y[0:4], e, Y[0:4])
+            qmul(y[p_n], e, Y[p_n])
         if i == 1:
             for l in range(4):
                 p2[l] = Y[l]
@@ -207,13 +210,13 @@ def cf4_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, si
         for l in range(3):
             acc = 0.0
             for j in range(4):
-                acc += CF4_BETA[r, j] * K[j, 4 + l]
+                acc += CF4_BETA[r, j] * K[j, u0 + l]
             v[l] = h * acc
         quat_exp(v, e)
-        qmul(y[0:4], e, y[0:4])
+        qmul(y[p_n], e, y[p_n])
     for l in range(3):
         acc = 0.0
         for j in range(4):
-            acc += b[j] * K[j, 7 + l]
-        y[7 + l] += h * acc
+            acc += b[j] * K[j, w0 + l]
+        y[w0 + l] += h * acc
     return OK
