@@ -18,6 +18,7 @@ from xcheck.models import load_body
 from xcheck.paths import BUNDLED_MODELS
 from xcheck.scenario import resolve_scenario
 from xcheck.study import run_study
+from xcheck.base import executors as X
 from xcheck.sweep import run as R
 from xcheck.sweep import spec as S
 
@@ -334,7 +335,7 @@ def test_a_scheduler_address_that_is_not_dask_is_named_within_seconds(tmp_path, 
 
     server = HTTPServer(("127.0.0.1", 0), SimpleHTTPRequestHandler)
     threading.Thread(target=server.serve_forever, daemon=True).start()
-    monkeypatch.setattr(R, "SCHEDULER_SECONDS", 1)
+    monkeypatch.setattr(X, "SCHEDULER_SECONDS", 1)
     address = f"tcp://127.0.0.1:{server.server_address[1]}"
     try:
         assert main(["sweep", str(_spec(tmp_path)), "--out", str(tmp_path / "out"), "--executor", "dask",
@@ -344,7 +345,7 @@ def test_a_scheduler_address_that_is_not_dask_is_named_within_seconds(tmp_path, 
     err = capsys.readouterr().err
     assert f"--scheduler {address}: something answers there, but not a Dask scheduler within 1 s" in err, err
     with LocalCluster(n_workers=0, processes=False, protocol="tcp", dashboard_address=":0") as cluster:
-        R._is_a_scheduler(cluster.scheduler_address)  # nothing raised
+        X._is_a_scheduler(cluster.scheduler_address)  # nothing raised
 
 
 def test_ctrl_c_in_a_dask_sweep_ends_it_promptly_and_quietly(tmp_path):

@@ -5,5 +5,6 @@
   place when complete, ``latest`` moved then), folders held by one process;
 - :mod:`.interrupts`: Ctrl-C and SIGTERM as exceptions that unwind, held back where files land together, and the
   progress bar;
-- :mod:`.pool`: worker processes that die with their parent and stop at once.
+- :mod:`.pool`: worker processes that die with their parent and stop at once;
+- :mod:`.executors`: where tasks run (this process, the pool, a Dask cluster) behind one interface.
 """
