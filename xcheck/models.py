@@ -324,6 +324,9 @@ def _written_key_quaternion(path, k: int, qs: slice) -> np.ndarray | None:
 
 
 def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
+    """Load ``path`` with MuJoCo and read its one rigid body (the checks of :func:`load_model`), each step named:
+    the joint that turns it, the forces xcheck would not model, gravity, the mass properties (one body, parts welded
+    together, or a gyrostat's), the pivot of a top, the dipole."""
     root = xml_root(path)
     if root is not None and root != "mujoco":  # MuJoCo would read a URDF too, and build a robot of it
         what = "a URDF robot description (<robot>)" if root == "robot" else f"an XML file whose root is <{root}>"
@@ -342,6 +345,44 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
         return mujoco.mj_id2name(model, obj, i) or f"#{i}"
 
     _check_finite(model, refuse, name)
+    jnt, joint = _turning_joint(model, refuse, name)
+    body_id = int(model.jnt_bodyid[jnt])
+    body_name = name(mujoco.mjtObj.mjOBJ_BODY, body_id)
+    # a part without a joint of its own (an axle, a panel, an antenna) is welded to it: one rigid body (a part with
+    # a joint was refused above)
+    parts = [b for b in range(1, model.nbody) if model.body_weldid[b] == body_id]
+    if model.neq:
+        refuse(f"{model.neq} equality constraint(s): out of scope (one free rigid body)")
+    wheels = _wheels(model, body_id, joint, [j for j in range(model.njnt) if j != jnt], refuse, name)
+    dof = int(model.jnt_dofadr[jnt])
+    _refuse_other_forces(model, jnt, joint, refuse)
+    gravity = _gravity(model, joint, parts, notes, refuse, name)
+    mass, com, inertia, moments, iquat, wheels = _mass_properties(model, body_id, body_name, parts, wheels, notes)
+    centre, reference = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
+    if joint == "ball":  # a top: it turns about the pivot, where the joint is (body frame)
+        centre = com - model.jnt_pos[jnt]
+        inertia = inertia + _parallel_axes(mass, centre)
+        data = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)  # at qpos0: the ball joint's identity, the body at its reference pose
+        reference = data.xquat[body_id].copy()
+        notes.append(f"a top on the ball joint '{name(mujoco.mjtObj.mjOBJ_JOINT, jnt)}': inertia about the pivot, "
+                     f"centre of mass {np.round(centre, 9).tolist()} m from it, gravity {gravity.tolist()} m/s^2 kept "
+                     "(its torque about the pivot, c x m R^T g)")
+    dipole = _dipole(model, refuse)
+    try:
+        body = MJCFBody(inertia=inertia, mass=float(mass), dipole=dipole,
+                        name=body_name if not body_name.startswith("#") else path.stem, path=where,
+                        notes=tuple(notes), body_id=body_id, qpos_adr=int(model.jnt_qposadr[jnt]), dof_adr=dof,
+                        model_moments=tuple(moments.tolist()), model_iquat=tuple(np.asarray(iquat).tolist()),
+                        joint=joint, centre=tuple(centre.tolist()), gravity=tuple(gravity.tolist()),
+                        reference_quat=tuple(reference.tolist()), wheels=tuple(wheels), parts=len(parts))
+    except ValueError as exc:
+        raise ModelError(f"{where}: body '{body_name}': {exc}") from None
+    return model, body
+
+
+def _turning_joint(model, refuse, name) -> tuple[int, str]:
+    """The one free or ball joint that turns the body, and which it is; any other joint but a wheel's hinge refused."""
     turning = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL))
     hinge = int(mujoco.mjtJoint.mjJNT_HINGE)
     roots = [j for j in range(model.njnt) if int(model.jnt_type[j]) in turning]
@@ -367,14 +408,12 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
     if joint == "ball" and model.jnt_limited[jnt]:
         refuse(f"the ball joint '{name(mujoco.mjtObj.mjOBJ_JOINT, jnt)}' has a range: a limit is a constraint "
                "force xcheck does not model; remove limited/range")
-    body_id = int(model.jnt_bodyid[jnt])
-    body_name = name(mujoco.mjtObj.mjOBJ_BODY, body_id)
-    # a part without a joint of its own (an axle, a panel, an antenna) is welded to it: one rigid body (a part with
-    # a joint was refused above)
-    parts = [b for b in range(1, model.nbody) if model.body_weldid[b] == body_id]
-    if model.neq:
-        refuse(f"{model.neq} equality constraint(s): out of scope (one free rigid body)")
-    wheels = _wheels(model, body_id, joint, [j for j in range(model.njnt) if j != jnt], refuse, name)
+    return jnt, joint
+
+
+def _refuse_other_forces(model, jnt: int, joint: str, refuse) -> None:
+    """Refuse what would add a force xcheck does not model: the joint's damping, armature, friction or stiffness,
+    tendons, plugins and flexes, fluid forces, contacts between the body's geoms."""
     dof = int(model.jnt_dofadr[jnt])
     ndof = 6 if joint == "free" else 3
     for what, values in (("damping", model.dof_damping), ("armature", model.dof_armature),
@@ -399,6 +438,11 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
         if pair is not None:
             refuse(f"contacts are enabled and geoms '{pair[0]}' and '{pair[1]}' can collide: add "
                    "<flag contact=\"disable\"/> to <option>, or set their contype/conaffinity to 0")
+
+
+def _gravity(model, joint: str, parts, notes: list, refuse, name) -> np.ndarray:
+    """The gravity that exerts a torque: a top's (about its pivot), none on a free body (switched off in ``model``,
+    said in ``notes``: a uniform field exerts no torque about the centre of mass)."""
     gravity = np.zeros(3)
     gravity_off = bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY)  # <flag gravity="disable"/>
     if np.any(model.opt.gravity != 0) and joint == "free" and not gravity_off:
@@ -420,63 +464,54 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
             refuse(f"body '{name(mujoco.mjtObj.mjOBJ_BODY, b)}' has gravcomp=\"{model.body_gravcomp[b]:g}\": MuJoCo "
                    "would cancel that share of its weight, and of gravity's torque about the pivot, which xcheck's "
                    "top does not model; remove gravcomp (or switch gravity off with <flag gravity=\"disable\"/>)")
+    return gravity
 
-    if len(parts) == 1 and not wheels:  # one body: MuJoCo's own mass, principal moments and frame, as compiled
+
+def _mass_properties(model, body_id: int, body_name: str, parts, wheels, notes: list):
+    """``(mass, com, inertia, moments, iquat, wheels)`` of the rigid body: MuJoCo's own, as compiled, for one body;
+    for parts welded together or a gyrostat, the composite (a gyrostat's less each wheel's axial moment: the wheels'
+    momentum is a torque of the model's own, ``WheelsTorque``), with its notes. A wheel's pulse is left out where
+    the model disables actuation (MuJoCo applies no motor's force)."""
+    if len(parts) == 1 and not wheels:
         mass, moments, iquat = model.body_mass[body_id], model.body_inertia[body_id].copy(), model.body_iquat[body_id]
         com = model.body_ipos[body_id].copy()
         R = rot.quat_to_dcm(iquat)
-        inertia = R @ np.diag(moments) @ R.T
-    else:
-        mass, com, inertia = composite_inertia(model, body_id, wheels=[w.body for w in wheels])
-        for w in wheels:  # the gyrostat's inertia: the wheels' axial spin is their momentum's (WheelsTorque)
-            inertia = inertia - w.moment * np.outer(w.axis, w.axis)
-        moments, axes = np.linalg.eigh(inertia)  # the principal moments and axes in the body frame (sorted)
-        if np.linalg.det(axes) < 0:
-            axes[:, 2] *= -1
-        iquat = rot.dcm_to_quat(axes)
-        if len(parts) > 1:
-            notes.append(f"{len(parts)} bodies without joints welded into one rigid body: mass {mass:g} kg, centre "
-                         f"of mass {np.round(com, 9).tolist()} m in the frame of '{body_name}'")
-        if wheels:
-            notes.append(f"a gyrostat: {len(wheels)} axisymmetric wheel(s) ({', '.join(w.name for w in wheels)}); "
-                         "the inertia is the whole body's about its centre of mass less each wheel's axial moment, "
-                         "the wheels' momentum a torque of the model's own")
-        if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_ACTUATION and any(w.pulse for w in wheels):
-            notes.append("actuation disabled by the model's <flag actuation=\"disable\"/>: MuJoCo applies no "
-                         "motor's force, so the pulses of "
-                         f"{', '.join(repr(w.name) for w in wheels if w.pulse)} are left out: the wheels turn freely")
-            wheels = [replace(w, pulse=None, actuator=-1) for w in wheels]
-        notes += [f"wheel '{w.name}' has a motor but no <numeric name=\"{PULSE_NUMERIC}ACTUATOR\"> commands it: the "
-                  "motor exerts nothing, and the wheel turns freely" for w in wheels if w.actuator >= 0 and w.pulse is None]
-    centre, reference = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0])
-    if joint == "ball":  # a top: it turns about the pivot, where the joint is (body frame)
-        centre = com - model.jnt_pos[jnt]
-        inertia = inertia + _parallel_axes(mass, centre)
-        data = mujoco.MjData(model)
-        mujoco.mj_kinematics(model, data)  # at qpos0: the ball joint's identity, the body at its reference pose
-        reference = data.xquat[body_id].copy()
-        notes.append(f"a top on the ball joint '{name(mujoco.mjtObj.mjOBJ_JOINT, jnt)}': inertia about the pivot, "
-                     f"centre of mass {np.round(centre, 9).tolist()} m from it, gravity {gravity.tolist()} m/s^2 kept "
-                     "(its torque about the pivot, c x m R^T g)")
-    dipole = np.zeros(3)
+        return mass, com, R @ np.diag(moments) @ R.T, moments, iquat, wheels
+    mass, com, inertia = composite_inertia(model, body_id, wheels=[w.body for w in wheels])
+    for w in wheels:
+        inertia = inertia - w.moment * np.outer(w.axis, w.axis)
+    moments, axes = np.linalg.eigh(inertia)  # the principal moments and axes in the body frame (sorted)
+    if np.linalg.det(axes) < 0:
+        axes[:, 2] *= -1
+    iquat = rot.dcm_to_quat(axes)
+    if len(parts) > 1:
+        notes.append(f"{len(parts)} bodies without joints welded into one rigid body: mass {mass:g} kg, centre "
+                     f"of mass {np.round(com, 9).tolist()} m in the frame of '{body_name}'")
+    if wheels:
+        notes.append(f"a gyrostat: {len(wheels)} axisymmetric wheel(s) ({', '.join(w.name for w in wheels)}); "
+                     "the inertia is the whole body's about its centre of mass less each wheel's axial moment, "
+                     "the wheels' momentum a torque of the model's own")
+    if model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_ACTUATION and any(w.pulse for w in wheels):
+        notes.append("actuation disabled by the model's <flag actuation=\"disable\"/>: MuJoCo applies no "
+                     "motor's force, so the pulses of "
+                     f"{', '.join(repr(w.name) for w in wheels if w.pulse)} are left out: the wheels turn freely")
+        wheels = [replace(w, pulse=None, actuator=-1) for w in wheels]
+    notes += [f"wheel '{w.name}' has a motor but no <numeric name=\"{PULSE_NUMERIC}ACTUATOR\"> commands it: the "
+              "motor exerts nothing, and the wheel turns freely" for w in wheels if w.actuator >= 0 and w.pulse is None]
+    return mass, com, inertia, moments, iquat, wheels
+
+
+def _dipole(model, refuse) -> np.ndarray:
+    """The permanent dipole [A m^2, body components] of ``<numeric name="xcheck_dipole">``, zero without one."""
     nid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_NUMERIC, DIPOLE_NUMERIC)
-    if nid >= 0:
-        size = int(model.numeric_size[nid])
-        if size != 3:
-            refuse(f"<numeric name=\"{DIPOLE_NUMERIC}\"> has {size} values; expected 3 (the dipole in A m^2, body "
-                   "components)")
-        adr = int(model.numeric_adr[nid])
-        dipole = model.numeric_data[adr:adr + 3].copy()
-    try:
-        body = MJCFBody(inertia=inertia, mass=float(mass), dipole=dipole,
-                        name=body_name if not body_name.startswith("#") else path.stem, path=where,
-                        notes=tuple(notes), body_id=body_id, qpos_adr=int(model.jnt_qposadr[jnt]), dof_adr=dof,
-                        model_moments=tuple(moments.tolist()), model_iquat=tuple(np.asarray(iquat).tolist()),
-                        joint=joint, centre=tuple(centre.tolist()), gravity=tuple(gravity.tolist()),
-                        reference_quat=tuple(reference.tolist()), wheels=tuple(wheels), parts=len(parts))
-    except ValueError as exc:
-        raise ModelError(f"{where}: body '{body_name}': {exc}") from None
-    return model, body
+    if nid < 0:
+        return np.zeros(3)
+    size = int(model.numeric_size[nid])
+    if size != 3:
+        refuse(f"<numeric name=\"{DIPOLE_NUMERIC}\"> has {size} values; expected 3 (the dipole in A m^2, body "
+               "components)")
+    adr = int(model.numeric_adr[nid])
+    return model.numeric_data[adr:adr + 3].copy()
 
 
 def _multibody(model, roots, hinge) -> str | None:

@@ -291,8 +291,32 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
     description = top.get("description", "string", "")
     model = top.path_("model", required=True)
     duration = top.positive("duration", required=True)
+    q0, omega0, sequence, wheel_speeds = _read_initial(_Reader(path, top.get("initial", "table", required=True),
+                                                               "initial"))
+    torque = _read_torques(top, data)
+    study = _read_study(_Reader(path, top.get("study", "table", {}), "study"), duration, torque, omega0)
+    checks, derive = _read_checks(_Reader(path, top.get("checks", "table", {}), "checks"), study["methods"],
+                                  study.pop("derive"))
+    determination = None
+    if "determination" in data:
+        from .determination.sensors import read_determination
 
-    ini = _Reader(path, top.get("initial", "table", required=True), "initial")
+        determination = read_determination(_Reader(path, top.get("determination", "table"), "determination"),
+                                           duration, torque)
+
+    scenario = Scenario(name=name, path=path, model=model, duration=duration, q0=q0, omega0=omega0,
+                        sequence=sequence, description=description, torque=torque, checks=checks,
+                        determination=determination, wheel_speeds=wheel_speeds, derive=derive, **study)
+    if check_model:
+        from .assembly import check_scenario_model
+
+        check_scenario_model(scenario)
+    return scenario
+
+
+def _read_initial(ini: _Reader) -> tuple:
+    """``[initial]``: ``(q0, omega0, euler sequence, wheel speeds or None)``, from a quaternion and a body rate or
+    from Euler angles and their rates (seed 001's way), checked as every initial state is."""
     euler0 = None
     sequence = "323"
     if ini.has("quaternion") and (ini.has("euler_angles_deg") or ini.has("euler_rates")):
@@ -315,8 +339,6 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
         sequence = ini.get("euler_sequence", "string", "323")
         euler0 = np.radians(ini.get("euler_angles_deg", ("vector", 3)))
         rates = ini.get("euler_rates", ("vector", 3), required=True)
-        q0 = None
-        omega0 = None
     else:
         ini.fail("quaternion", "missing: give either quaternion + angular_velocity, or euler_sequence + "
                                "euler_angles_deg + euler_rates")
@@ -335,19 +357,25 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
         if not all(np.isfinite(wheel_speeds)):
             ini.fail("wheel_speeds", f"expected finite speeds [rad/s], got {list(wheel_speeds)}")
     ini.finish()
+    return q0, omega0, sequence, wheel_speeds
 
-    torque = None
-    if "torque" in data:  # one [torque] table, or a list of them ([[torque]]: their sum)
-        value = data["torque"]
-        if isinstance(value, list):
-            if not value or not all(isinstance(t, dict) for t in value):
-                top.fail("torque", f"expected [torque] tables ([[torque]] for each term of a sum), got {value!r}")
-            torque = [_read_torque(_Reader(path, t, f"torque[{k}]")) for k, t in enumerate(value)]
-            torque = torque[0] if len(torque) == 1 else torque
-        else:
-            torque = _read_torque(_Reader(path, top.get("torque", "table"), "torque"))
 
-    st = _Reader(path, top.get("study", "table", {}), "study")
+def _read_torques(top: _Reader, data: dict):
+    """``[torque]`` (one table) or ``[[torque]]`` (a list of them: their sum), or None."""
+    if "torque" not in data:
+        return None
+    value = data["torque"]
+    if not isinstance(value, list):
+        return _read_torque(_Reader(top.path, top.get("torque", "table"), "torque"))
+    if not value or not all(isinstance(t, dict) for t in value):
+        top.fail("torque", f"expected [torque] tables ([[torque]] for each term of a sum), got {value!r}")
+    torque = [_read_torque(_Reader(top.path, t, f"torque[{k}]")) for k, t in enumerate(value)]
+    return torque[0] if len(torque) == 1 else torque
+
+
+def _read_study(st: _Reader, duration: float, torque, omega0) -> dict:
+    """``[study]``: the steps (the defaults that fit the duration where the file leaves them out: ``derive`` names
+    them, for :func:`xcheck.assembly.fill_derived`), tolerances, methods and the reference."""
     steps = tuple(st.get("steps", "numbers", list(DEFAULT_STEPS)))
     quick_steps = tuple(st.get("quick_steps", "numbers", list(QUICK_STEPS)))
     if "steps" not in st.table:  # the defaults need not fit every duration: steps longer than it are dropped (and the
@@ -390,9 +418,17 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
             if m not in RUNNERS:
                 st.fail(key, unknown_method(m))
     st.finish()
+    return dict(steps=steps, quick_steps=quick_steps, tolerances=tolerances, quick_tolerances=quick_tolerances,
+                adaptive_step=adaptive_step, methods=methods, reference=reference,
+                reference_method=reference_method, reference_dt=reference_dt, derive=derive)
 
-    ck = _Reader(path, top.get("checks", "table", {}), "checks")
-    if "steps" in derive:  # the limits that go with derived steps, where the file leaves them out too
+
+def _read_checks(ck: _Reader, methods, derive: tuple) -> tuple[dict, tuple]:
+    """``[checks]``: the limits (the defaults where left out) and the methods expected to fail; ``derive`` grows by
+    the limits that go with derived steps where the file leaves them out too."""
+    from .runners import RUNNERS, unknown_method
+
+    if "steps" in derive:
         derive += tuple(k for k in ("final_error", "agreement", "invariant_tolerance") if k not in ck.table)
     checks = dict(DEFAULT_CHECKS)
     for key in ("order_tolerance", "order_excess", "final_error", "invariant_tolerance", "agreement"):
@@ -404,25 +440,7 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
         if methods and m not in methods:
             ck.fail("expected_to_fail", f"{m!r} is not among the [study] methods {methods}")
     ck.finish()
-
-    determination = None
-    if "determination" in data:
-        from .determination.sensors import read_determination
-
-        determination = read_determination(_Reader(path, top.get("determination", "table"), "determination"),
-                                           duration, torque)
-
-    scenario = Scenario(name=name, path=path, model=model, duration=duration, q0=q0, omega0=omega0,
-                        sequence=sequence, description=description, torque=torque, steps=steps,
-                        quick_steps=quick_steps, tolerances=tolerances, quick_tolerances=quick_tolerances,
-                        adaptive_step=adaptive_step, methods=methods, reference=reference,
-                        reference_method=reference_method, reference_dt=reference_dt, checks=checks,
-                        determination=determination, wheel_speeds=wheel_speeds, derive=derive)
-    if check_model:
-        from .assembly import check_scenario_model
-
-        check_scenario_model(scenario)
-    return scenario
+    return checks, derive
 
 
 #: The keys of the surface forces' [torque] tables (:mod:`xcheck.fields.surface`): key -> (shape, required).
