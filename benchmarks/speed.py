@@ -103,6 +103,24 @@ print(len(cases), best)
 """
 
 
+def score_lines(tmp: Path, repeat: int) -> list[tuple[str, float, str, bool]]:
+    """Issue 39: ``xcheck score`` of a million-row file (the tumbler's exact motion written scalar-last, so that it
+    fails and the detective runs too: the worst case), as a user runs it."""
+    import numpy as np
+
+    from xcheck.scenario import resolve_scenario
+    from xcheck.study.context import scenario_reference
+
+    sc = resolve_scenario("tumbler-intermediate-axis")
+    t = np.linspace(0.0, sc.duration, 1_000_000)
+    q, w, _ = scenario_reference(sc).at(t)
+    path = tmp / "million.csv"
+    np.savetxt(path, np.column_stack([t, q[:, [1, 2, 3, 0]], w]), delimiter=",", fmt="%.17g", comments="",
+               header="t_s,qw,qx,qy,qz,wx_rad_s,wy_rad_s,wz_rad_s")
+    elapsed = best_of(repeat, [*XCHECK, "score", str(path), "--scenario", sc.name])  # exit 1: it fails
+    return [("xcheck score of a 1e6-row file (the detective included) [s]", elapsed, "<= 5", elapsed <= 5)]
+
+
 def guard_seconds() -> tuple[int, float]:
     """Issue 36's guard: ``check_exact`` on every bundled scenario with an exact reference, the best of 5 [s]."""
     out = subprocess.run([sys.executable, "-c", GUARD_PROBE], check=True, capture_output=True, text=True).stdout.split()
@@ -176,6 +194,7 @@ def main(argv=None) -> int:
             size = folder_size((folder / "latest").resolve()) / 1e6
             lines.append((f"size of one {kind} report folder [MB]", size, "<= 5", size <= 5))
         lines += bench_lines(tmp)
+        lines += score_lines(tmp, max(1, args.repeat - 1))
         if args.suite:
             for way, env in ways:
                 t = suite(env)

@@ -48,7 +48,7 @@ def test_quick_report_passes_and_writes_every_file(quick_report):
     for scenario in bundled_scenarios():
         assert (folder / "plots" / f"{scenario}-convergence.png").is_file()
         csvs = list((folder / "trajectories" / scenario).glob("*.csv"))
-        assert len(csvs) >= 10
+        assert len(csvs) >= (5 if scenario == "nesc-tumbling-brick" else 10)  # its files are its subject
     # a CSV row: t, q (4), omega (3), error
     text = (folder / "trajectories" / "gyroscope-nonsingular" / "lie-rkmk4.csv").read_text().splitlines()
     assert text[1].startswith("t_s,qw,qx,qy,qz") and len(text[2].split(",")) == 9

@@ -13,7 +13,7 @@ PACKAGE = Path(xcheck.__file__).resolve().parent
 #: The core: mathematics, integrators, references, metrics, fields (docs/architecture.md).
 CORE = ["base", "rotations", "seeds", "body", "trajectory", "fields", "integrators", "reference", "elliptic", "guard",
         "defaults", "metrics",
-        "_jit", "paths", "results", "determination.methods", "determination.seed002", "league.boxes"]
+        "_jit", "paths", "results", "determination.methods", "determination.seed002", "league.boxes", "scoring.earth"]
 
 
 def module_name(path: Path) -> str:
@@ -232,7 +232,7 @@ LAYERS = (
     ("base", "paths", "_jit", ""),  # what everyone uses ("" is xcheck itself: its version)
     tuple(CORE),  # the mathematics: rotations, integrators, references, fields, metrics
     ("models", "engines", "versions", "torque_terms", "scenario", "assembly", "runners",
-     "determination.sensors"),  # bodies, engines, scenarios and what they assemble
+     "determination.sensors", "scoring"),  # bodies, engines, scenarios and what they assemble; files scored
     ("study", "determination", "sweep", "league.run", "league.releases", "history.store", "history.matrix",
      "history", "bench"),  # studies and their runs
     ("report", "league", "league.precision", "history.nightly", "pytest_plugin", "testing"),  # what is written

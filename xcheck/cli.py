@@ -1,7 +1,7 @@
 """The ``xcheck`` command line: argparse, the signals, and exit codes; each command's work is a function of
 :mod:`xcheck.commands`.
 
-``xcheck list | converge | run | report | nightly | sweep | init | determine | league | releases | mjx | bench``.
+``xcheck list | converge | run | score | report | nightly | sweep | init | determine | league | releases | mjx | bench``.
 Exit codes: 0 when every check passed (and, for ``nightly``, nothing regressed), 1 when a check failed (or something
 regressed), 4 when no check failed but the study could not decide, 2 for bad input (a
 :class:`xcheck.base.errors.UserError`: the message names the file, key, argument or path), 130 when interrupted
@@ -58,6 +58,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, default=None,
                    help="processes for the study, this one included (default: this process, and one worker for "
                         "Basilisk's methods when it is installed)")
+
+    p = sub.add_parser("score", help="score a trajectory file of any simulator against a scenario's reference")
+    p.add_argument("file", metavar="FILE", help="a CSV of one sample a row (docs/trajectory-files.md)")
+    p.add_argument("--scenario", required=True, help="a bundled scenario name or a scenario .toml file")
+    p.add_argument("--declaration", metavar="TOML", help="how FILE states its conventions (default: the scenario's "
+                                                         "[[trajectory]] for FILE, else FILE.toml, else xcheck's CSV)")
+    p.add_argument("--json", metavar="PATH", help="write the score as JSON")
 
     p = sub.add_parser("run", help="one trajectory")
     p.add_argument("scenario", help="a bundled scenario name, a scenario .toml file, or an MJCF model alone "

@@ -109,7 +109,7 @@ class ScenarioFile(pytest.File):
             return
         methods = default_methods(self.scenario)
         planned = planned_checks(self.scenario, methods, quick=_quick(self.config))
-        for method in methods:
+        for method in [*methods, *(c.name for c in self.scenario.trajectories)]:  # methods, then trajectory files
             kinds = [k for m, k in planned if m == method]
             yield MethodNode.from_parent(self, name=method, kinds=kinds)
 

@@ -41,9 +41,11 @@ def _num(v) -> str:
 
 def method_line(study, method: str) -> str:
     """The report's line for one method: its finest good run's errors, its observed order, its runs that
-    failed (the runs table and the order column of the report, in one line)."""
+    failed (the runs table and the order column of the report, in one line); a trajectory file's sentence."""
     from .trajectory import step_label
 
+    if method not in study.methods:
+        return f"report: {study.files[method].sentence()}" if method in study.files else f"report: {method}: not run"
     m = study.methods[method]
     parts = []
     if m.finest is not None:
@@ -75,6 +77,9 @@ def check_message(study, method: str, kind: str) -> str | None:
         return None
     from .study.checks import check_summary
 
+    if kind == "file" or method in study.files:  # a trajectory file: its sentence says it all
+        return (f"{sc.name}: {method} {kind} FAILED: {check.note}\n"
+                f"  the {study.reference_used} reference over {sc.duration:g} s; file {study.files[method].file}")
     if kind == "runs":
         measured = f"its finest run must complete: {check.note}"
     elif kind == "expected-failure":

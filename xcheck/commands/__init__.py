@@ -26,7 +26,8 @@ from typing import Callable
 COMMANDS = {"list": ("studies", "list_all"), "converge": ("studies", "converge"), "run": ("studies", "run_one"),
             "report": ("reports", "report"), "nightly": ("reports", "nightly"), "bench": ("reports", "bench"),
             "sweep": ("sweeps", "sweep"), "league": ("tables", "league"), "releases": ("tables", "releases"),
-            "mjx": ("tables", "mjx"), "init": ("init", "init"), "determine": ("determine", "determine")}
+            "mjx": ("tables", "mjx"), "init": ("init", "init"), "determine": ("determine", "determine"),
+            "score": ("score", "score")}
 
 
 def _stderr(text: str) -> None:

@@ -51,8 +51,12 @@ def study_lines(st) -> list[str]:
         exp = m.expected_order if m.expected_order is not None else "adaptive"
         err_text = "—" if m.finest is None else format(m.finest.attitude_error, ".2e")
         lines.append(f"  {name:22s} {exp!s:>8s} {obs:>8s} {err_text:>13s}  {m.status_text}")
+    if st.files:
+        from .score import file_lines
+
+        lines += file_lines(list(st.files.values()))
     for c in st.checks:
-        if not c.passed:
+        if not c.passed and c.kind != "file":  # a file's failure: its sentence above
             summary = check_summary(c, st.scenario.checks)
             detail = f"; {c.note}" if c.note and c.note != summary else ""
             lines.append(f"  {'INCONCLUSIVE' if c.inconclusive else 'FAILED'} {c.name}: {summary}{detail}")

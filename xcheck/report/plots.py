@@ -50,6 +50,7 @@ def render_figures(data: dict, series: dict, *, quick: bool = False) -> list[tup
                          "wall time of a run (the best of up to 5 runs of a short one), work against precision "
                          "(lower left is better), the adaptive methods (open markers) at each of their tolerances; "
                          "dotted lines at the tolerances of the step-size table."))
+        figs += _files_figure(data, name)
         if data.get("comparisons"):
             figs.append(png_of(_comparisons(data, colors), f"{name}-direct.png",
                              "Direct cross-check, no reference: the largest attitude difference over the run "
@@ -73,6 +74,36 @@ def render_figures(data: dict, series: dict, *, quick: bool = False) -> list[tup
                 figs += _torqued_histories(data, series, name)
             figs += _wheels_stiffness(data, name)
     return figs
+
+
+def _files_figure(data, name):
+    """Issue 39: each trajectory file's attitude and rate errors against time (log-log), with its tolerance."""
+    files = data.get("files") or {}
+    if not files:
+        return []
+    fig, (top, bottom) = subplots(2, 1, size=(7.5, 6.2), sharex=True, legend_outside=True)
+    colors = colors_of(list(files))
+    for label, f in files.items():
+        t = np.array(f["series"]["t"], dtype=float)
+        keep = t > 0
+        for ax, key in ((top, "attitude_error"), (bottom, "rate_error")):
+            if key in f["series"]:
+                y = np.array([np.nan if v is None else v for v in f["series"][key]], dtype=float)
+                ax.loglog(t[keep], np.maximum(y[keep], 1e-17), color=colors[label], lw=1.4,
+                          label=f"{label} ({f['outcome'].lower()})" if ax is top else None)
+    tol = {f["tolerance"] for f in files.values()}
+    for value in tol:
+        top.axhline(value, color="0.4", ls=":", lw=1)
+    top.set_ylabel("attitude error [rad]")
+    bottom.set_ylabel("rate error [rad/s]")
+    bottom.set_xlabel("time [s]")
+    top.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    for ax in (top, bottom):
+        ax.grid(True, which="major", alpha=0.3)
+    return [png_of(fig, f"{name}-files.png",
+                   "The trajectory files scored against the reference: the attitude error (top) and the body-rate "
+                   "error (bottom) against time, log-log; the dotted line is the files' tolerance. A straight line of "
+                   "slope p is an error growing as t^p.")]
 
 
 def _wheels_stiffness(data, name):

@@ -364,6 +364,7 @@ def _scenario_blocks(st, figs) -> list:
             rows.append([Cell(name, m.verdict), *(_run_cell(by_tol.get(t)) for t in tols),
                          Cell(f"{tight.evaluations:,}" if tight and tight.evaluations else "—", num=True)])
         blocks.append(Table(["method", *(f"rtol {t:.0e}" for t in tols), "evaluations"], rows))
+    blocks += _file_blocks(st)
     keys = [k for k in ("1e-03", "1e-06", "1e-09")]
     blocks.append(Para("What a tolerance costs: the largest step at which each method stays within it over the "
                        "whole run (≈ interpolated on the log-log line between the two tested steps that bracket it; "
@@ -377,6 +378,33 @@ def _scenario_blocks(st, figs) -> list:
                                                 for k in keys])
     blocks.append(Table(["method", *(f"within {k} rad" for k in keys)], rows))
     blocks += engines_compared(st)
+    return blocks
+
+
+def _file_blocks(st) -> list:
+    """Issue 39: the scenario's trajectory files, each a row beside the methods: how it was read, its largest errors
+    against the reference, how its error grows, the invariants from its samples, its verdict and the detective's
+    word."""
+    if not st.files:
+        return []
+    rows = []
+    for name, f in st.files.items():
+        cls = "pass" if f.passed else ("expected" if name in st.scenario.checks["expected_to_fail"] else "fail")
+        drift = "—" if f.energy_drift is None else f"{f.energy_drift:.1e} / {f.momentum_drift:.1e}"
+        rows.append([Cell(name, cls), f"{f.rows:,}", Cell(fmt(f.max_attitude_error, ".2e"), num=True),
+                     Cell(fmt(f.max_rate_error, ".2e"), num=True),
+                     Cell("—" if f.growth is None else f"t^{f.growth:.2f}", num=True), Cell(drift, num=True),
+                     Cell(f.outcome, cls)])
+    blocks = [Para("Trajectory files of other simulators, each one run scored against the same reference (no "
+                   "order): the largest attitude error [rad] and body-rate error [rad/s] over the run, the growth "
+                   "of the attitude error (the exponent p of t^p over the last nine tenths), and the largest "
+                   "relative drift of the energy and of the angular momentum's magnitude computed from the file's "
+                   "own samples.", small=True),
+              Table(["file", "rows", "attitude", "rate", "growth", "energy / momentum", "verdict"], rows)]
+    for name, f in st.files.items():
+        read = f"{name}: read as {f.convention}" + (f"; source: {f.source}" if f.source else "")
+        blocks.append(Para([(f.sentence() + ". ", None), (read + ".", None)]
+                           + [(" " + n + ".", None) for n in f.notes], small=True))
     return blocks
 
 

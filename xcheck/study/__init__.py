@@ -26,6 +26,7 @@ from ..scenario import Scenario, check_steps
 from ..versions import versions
 from .checks import adaptive_note, planned_checks, qualify, study_checks, study_floor, verdict
 from .executor import map_tasks, prefer_here
+from .files import score_trajectories
 from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_method
 
 __all__ = ["run_study", "run_studies", "assemble", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows",
@@ -59,6 +60,8 @@ class StudyResult:
     model_torque: str | None = None
     #: a gyrostat's wheels stiffening its attitude (:func:`xcheck.assembly.wheels_stiffness`), full studies only
     wheels_stiffness: dict | None = None
+    #: the scenario's trajectory files, scored (name -> :class:`xcheck.scoring.score.FileScore`)
+    files: dict = field(default_factory=dict)
 
     @property
     def outcome(self) -> str:
@@ -97,7 +100,8 @@ class StudyResult:
                 **({"assumptions": list(sc.assumptions)} if sc.assumptions else {}),
                 **({"wheel_speeds": list(sc.wheel_speeds)} if sc.wheel_speeds is not None else {}),
                 **({"model_torque": self.model_torque} if self.model_torque else {}),
-                **({"wheels_stiffness": self.wheels_stiffness} if self.wheels_stiffness else {})}
+                **({"wheels_stiffness": self.wheels_stiffness} if self.wheels_stiffness else {}),
+                **({"files": {n: f.to_json() for n, f in self.files.items()}} if self.files else {})}
 
 
 def default_methods(scenario: Scenario) -> list[str]:
@@ -154,7 +158,8 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     tasks = [(scenario, m, tuple(steps), comparison_partner(scenario, m, methods), tolerances, timing) for m in methods]
     results = map_tasks(run_method, tasks, workers=workers, progress=progress, pool=pool,
                    labels=[f"{scenario.name}: {m}" for m in methods], here=prefer_here if here else None)
-    return about_the_model(assemble(scenario, steps, results, quick=quick and not steps_given), quick)
+    return score_trajectories(about_the_model(assemble(scenario, steps, results, quick=quick and not steps_given),
+                                              quick))
 
 
 def about_the_model(st: StudyResult, quick: bool = False) -> StudyResult:
@@ -202,7 +207,8 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
         missing[k] -= 1
         if missing[k] == 0:
             sc, _, steps = plans[k]
-            studies[k] = about_the_model(assemble(sc, steps, results[first[k]:first[k + 1]], quick=quick), quick)
+            studies[k] = score_trajectories(about_the_model(assemble(sc, steps, results[first[k]:first[k + 1]],
+                                                                     quick=quick), quick))
             if on_study:
                 on_study(studies[k])
 

@@ -248,6 +248,7 @@ def planned_checks(scenario: Scenario, methods, quick: bool = False) -> list[tup
             out.append((m, "expected-failure"))
             continue
         out += [(m, rule.kind) for rule in RULES if rule.applies(plans[m])]
+    out += [(c.name, "expected-failure" if c.name in expected_to_fail else "file") for c in scenario.trajectories]
     return out
 
 

@@ -1,0 +1,297 @@
+"""Trajectory files of any simulator, scored (issue 39): the local NED frame of a rotating Earth, NASA's check case 2
+against the exact answer, the convention detective on files made with each usual mistake, the bad-input refusals,
+and ``xcheck score`` giving the scenario's own numbers."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+
+import numpy as np
+import pytest
+
+from xcheck import rotations as rot
+from xcheck.cli import main
+from xcheck.scenario import load_scenario, resolve_scenario
+from xcheck.scoring.convention import Convention
+from xcheck.scoring.earth import WGS84_RATE, Earth, ecef_to_geodetic, fall, geodetic_to_ecef, ned_frames
+from xcheck.scoring.score import score_file
+from xcheck.study.context import run_context, scenario_reference
+
+NESC = resolve_scenario("nesc-tumbling-brick")
+
+
+def _column(path, name):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    k = rows[0].index(name)
+    return np.array([float(r[k]) for r in rows[1:] if r])
+
+
+# ------------------------------------------------------------------------------------------------------
+# the Earth's frame
+# ------------------------------------------------------------------------------------------------------
+def test_a_fixed_frame_on_the_equator_turns_about_north_at_the_earths_rate():
+    """Truth: at latitude 0 the Earth's axis is North, so the NED frame held over one point turns about its x axis by
+    w_E t: q = [cos(w_E t / 2), sin(w_E t / 2), 0, 0], to rounding."""
+    t = np.linspace(0, 3600, 7)
+    q, w = ned_frames(Earth(motion="fixed"), t)
+    a = WGS84_RATE * t
+    np.testing.assert_allclose(q, np.stack([np.cos(a / 2), np.sin(a / 2), 0 * a, 0 * a], 1), atol=1e-15)
+    np.testing.assert_allclose(w, np.tile([WGS84_RATE, 0, 0], (7, 1)), atol=1e-20)
+
+
+def test_the_frames_rate_is_the_derivative_of_its_attitude_at_any_latitude():
+    """Truth: finite differences (central, h = 1e-3 s) of the frame's attitude give the angular velocity it reports,
+    at 45 degrees north for a body held there and for one falling (its latitude and longitude both change)."""
+    for earth in (Earth(latitude=math.radians(45), longitude=1.0, height=9144, motion="fixed"),
+                  Earth(latitude=math.radians(45), longitude=1.0, height=9144, velocity_ned=(30, -20, 5))):
+        t = np.array([5.0 - 1e-3, 5.0, 5.0 + 1e-3])
+        q, w = ned_frames(earth, t)
+        dq = (q[2] - q[0]) / 2e-3
+        w_fd = 2 * rot.quat_mul(rot.quat_conj(q[1]), dq)[1:]  # q' = 1/2 q (0, w), w in the frame's components
+        np.testing.assert_allclose(w_fd, w[1], rtol=1e-6, atol=1e-12)
+
+
+def test_geodetic_positions_round_trip():
+    for lat, lon, h in ((0.0, 0.0, 9144.0), (0.7, -2.0, 400e3), (-1.2, 3.0, -50.0)):
+        back = ecef_to_geodetic(geodetic_to_ecef(lat, lon, h))
+        np.testing.assert_allclose([float(v) for v in back], [lat, lon, h], atol=1e-9)
+
+
+def test_the_brick_falls_where_the_simulators_say():
+    """Truth: the five simulators' longitude columns (their own fall on a rotating WGS-84 Earth). Ours (J2 gravity, from
+    rest relative to the Earth) is within 5e-7 of SIM 01's, 04's and 06's (relative, from 1 s on), of SIM 05's to 1e-5
+    (its times are single-precision numbers: 0.009999999776482582) and of SIM 02's to its three printed digits at 30 s;
+    the latitude stays 0 on the equator."""
+    for k, rtol in (("01", 5e-7), ("04", 5e-7), ("06", 5e-7), ("05", 1e-5), ("02", 2e-3)):
+        path = NESC.path.parent.parent / "nesc" / f"Atmos_02_sim_{k}.csv"
+        t, lon = _column(path, "time"), _column(path, "longitude_deg")
+        lat_ours, lon_ours, _ = fall(NESC.earth, t)
+        late = t >= (1.0 if k != "02" else 29.9)
+        np.testing.assert_allclose(np.degrees(lon_ours[late]), lon[late], rtol=rtol, err_msg=f"SIM {k}")
+        assert np.max(np.abs(lat_ours)) == 0.0
+
+
+# ------------------------------------------------------------------------------------------------------
+# NASA's check case 2 against the exact answer
+# ------------------------------------------------------------------------------------------------------
+#: Each simulator's largest attitude and rate error over the 30 s against the exact torque-free answer, as measured
+#: (bounds: a factor 1.5 either side; SIM 01 and 04 at their printed digits).
+MEASURED = {"SIM 01": (6.09e-11, 6.36e-12), "SIM 02": (6.48e-2, 2.20e-5), "SIM 04": (9.11e-11, 6.76e-12),
+            "SIM 05": (2.09e-6, 1.02e-6), "SIM 06": (1.82e-4, 8.28e-5)}
+
+
+@pytest.fixture(scope="module")
+def nesc_scores():
+    ctx = run_context(NESC)
+    ref = scenario_reference(NESC)
+    return {c.name: score_file(c, ref.at, inertia=ctx.inertia, duration=NESC.duration, earth=NESC.earth,
+                               tolerance=1e-3, torque_free=True) for c in NESC.trajectories}
+
+
+def test_every_simulator_of_case_2_is_scored_against_the_exact_answer(nesc_scores):
+    """Truth: the exact torque-free motion (Jacobi's elliptic functions, checked against DOP853 by the guard) in the
+    local NED frame of the rotating Earth. SIM 01 and SIM 04 agree with it to 1e-10 rad; SIM 05 to 2e-6 and SIM 06 to
+    2e-4; SIM 02's attitude departs at about 2e-3 rad/s while its rates stay within 2.2e-5 rad/s."""
+    assert set(nesc_scores) == set(MEASURED)
+    for name, (att, rate) in MEASURED.items():
+        s = nesc_scores[name]
+        assert att / 1.5 <= s.max_attitude_error <= att * 1.5, (name, s.max_attitude_error)
+        assert rate / 1.5 <= s.max_rate_error <= rate * 1.5, (name, s.max_rate_error)
+        assert s.rows == (3001 if name == "SIM 05" else 301)
+    assert [n for n, s in nesc_scores.items() if not s.passed] == ["SIM 02"]
+    assert 0.95 <= nesc_scores["SIM 02"].growth <= 1.05  # linear in time
+    assert "none of the" in nesc_scores["SIM 02"].sentence()
+
+
+def test_the_earths_rotation_and_the_fall_each_matter_by_how_much():
+    """Read as if relative to inertial space, SIM 01's attitude is off by the Earth's turn in 30 s (w_E 30 s =
+    2.188e-3 rad); with the Earth's rotation but the fall left out, by the longitude the brick drifts east as it falls
+    (1.0e-6 rad); with both, by 6e-11 rad."""
+    from dataclasses import replace
+
+    sim = NESC.trajectories[0]
+    ctx = run_context(NESC)
+    ref = scenario_reference(NESC)
+
+    def err(conv, earth):
+        return score_file(conv, ref.at, inertia=ctx.inertia, duration=30, earth=earth, tolerance=1,
+                          torque_free=True).max_attitude_error
+
+    assert err(replace(sim, frame="world"), None) == pytest.approx(WGS84_RATE * 30, rel=2e-3)
+    assert err(sim, replace(NESC.earth, motion="fixed")) == pytest.approx(1.003e-6, rel=5e-3)
+    assert err(sim, NESC.earth) < 1e-10
+
+
+def test_the_scenario_scores_its_files_in_its_study_and_score_gives_the_same_numbers(tmp_path, capsys):
+    """The study's rows (its JSON) and ``xcheck score`` of the same file: the same numbers; SIM 02 is the failure
+    the scenario expects (its check passes as expected), and ``score`` exits 1 on it, 0 on SIM 01."""
+    from xcheck.study import run_study
+
+    st = run_study(NESC, methods=["lie-rkmk4"], quick=True, workers=1, timing=False)
+    data = st.data["files"]
+    assert st.outcome == "PASSED"
+    assert {c.name: c.passed for c in st.checks if c.method in MEASURED} == {
+        "file:SIM 01": True, "expected-failure:SIM 02": True, "file:SIM 04": True, "file:SIM 05": True,
+        "file:SIM 06": True}
+    for k, code in (("01", 0), ("02", 1)):
+        out = tmp_path / f"{k}.json"
+        assert main(["score", str(NESC.path.parent.parent / "nesc" / f"Atmos_02_sim_{k}.csv"), "--scenario",
+                     "nesc-tumbling-brick", "--json", str(out)]) == code
+        got = json.loads(out.read_text())
+        for key in ("max_attitude_error", "max_rate_error", "growth", "rows", "outcome"):
+            assert got[key] == data[f"SIM {k}"][key], key
+    assert "SIM 02: largest attitude error 0.0648 rad" in capsys.readouterr().out
+
+
+# ------------------------------------------------------------------------------------------------------
+# the convention detective: a file made from the reference with each mistake put in
+# ------------------------------------------------------------------------------------------------------
+TUMBLER = resolve_scenario("tumbler-intermediate-axis")
+
+
+def _truth(n=1001):
+    t = np.linspace(0, TUMBLER.duration, n)
+    q, w = scenario_reference(TUMBLER).at(t)[:2]
+    return t, q, w
+
+
+def _write(path, header, cols):
+    rows = np.column_stack(cols)
+    path.write_text(",".join(header) + "\n" + "\n".join(",".join(f"{v:.17g}" for v in r) for r in rows) + "\n")
+    return path
+
+
+def _score(path, **declared):
+    ctx = run_context(TUMBLER)
+    conv = Convention(file=path, name=path.stem, declared=tuple(declared), **declared)
+    return score_file(conv, scenario_reference(TUMBLER).at, inertia=ctx.inertia, duration=TUMBLER.duration,
+                      earth=None, tolerance=1e-6, torque_free=True)
+
+
+Q = ["qw", "qx", "qy", "qz"]
+W = ["wx_rad_s", "wy_rad_s", "wz_rad_s"]
+
+
+def _mistakes():
+    """(name, header, columns(t, q, w), declaration, the detective's words)."""
+    def world_rates(t, q, w):
+        return rot.quat_rotate(q, w)
+
+    return [
+        ("scalar-last", ["t_s", *Q, *W], lambda t, q, w: (t, q[:, [1, 2, 3, 0]], w), {}, "read scalar-last"),
+        ("conjugate", ["t_s", *Q, *W], lambda t, q, w: (t, rot.quat_conj(q), w), {},
+         "read as the conjugate rotation"),
+        ("transposed", ["t_s", *[f"R{i}{j}" for i in "123" for j in "123"], *W],
+         lambda t, q, w: (t, np.swapaxes(rot.quat_to_dcm(q), 1, 2).reshape(-1, 9), w), {"attitude": "dcm"},
+         "read transposed"),
+        ("sequence", ["t_s", "a", "b", "c", *W], lambda t, q, w: (t, rot.quat_to_euler(q, "123", warn=False), w),
+         {"attitude": "euler", "columns": ("a", "b", "c"), "sequence": "321"}, "read as the sequence 123"),
+        ("reversed", ["t_s", "a", "b", "c", *W],
+         lambda t, q, w: (t, rot.quat_to_euler(q, "321", warn=False)[:, ::-1], w),
+         {"attitude": "euler", "columns": ("a", "b", "c"), "sequence": "321"},
+         "read with the angle columns in reverse order"),
+        ("degrees", ["t_s", "a", "b", "c", *W], lambda t, q, w: (t, rot.quat_to_euler(q, "321", warn=False), w),
+         {"attitude": "euler", "columns": ("a", "b", "c"), "sequence": "321", "angle_unit": "deg"},
+         "read with the angles in radians"),
+        ("world-rates", ["t_s", *Q, *W], lambda t, q, w: (t, q, world_rates(t, q, w)), {},
+         "read with the rates in the frame components"),
+        ("deg-rates", ["t_s", *Q, *W], lambda t, q, w: (t, q, np.degrees(w)), {}, "read with the rates in deg/s"),
+        ("late", ["t_s", *Q, *W], lambda t, q, w: (t[:-1], q[1:], w[1:]), {},
+         "one sample later than its time"),
+    ]
+
+
+@pytest.mark.parametrize("mistake", _mistakes(), ids=lambda m: m[0])
+def test_the_detective_finds_each_usual_mistake(tmp_path, mistake):
+    """Truth: the exact reference, written with one mistake put in. The file fails as given, and the detective's first
+    finding names the mistake and leaves less than 1e-8 rad (1e-8 rad/s for the rates)."""
+    name, header, make, declared, words = mistake
+    t, q, w = _truth()
+    s = _score(_write(tmp_path / f"{name}.csv", header, make(t, q, w)), **declared)
+    assert not s.passed
+    assert s.findings, s.sentence()
+    best = s.findings[0]
+    assert words in best["change"], (name, s.findings[:3])
+    error = best["max_rate_error"] if best["judged"] == "rates" else best["max_attitude_error"]
+    assert error < 1e-8, (name, best)
+    assert "match the reference to" in s.sentence()
+
+
+def test_a_correct_file_passes_and_the_detective_stays_quiet(tmp_path):
+    t, q, w = _truth()
+    s = _score(_write(tmp_path / "good.csv", ["t_s", *Q, *W], (t, q, w)))
+    assert s.passed and s.max_attitude_error < 1e-14 and s.max_rate_error < 1e-13 and s.findings == []
+    assert s.energy_drift < 1e-14 and s.momentum_drift < 1e-14
+
+
+# ------------------------------------------------------------------------------------------------------
+# bad input: refused, naming the file, the line and the column, exit 2, before any other work
+# ------------------------------------------------------------------------------------------------------
+GOOD = "t_s,qw,qx,qy,qz\n0,1,0,0,0\n0.5,1,0,0,0\n1.0,1,0,0,0\n"
+
+
+@pytest.mark.parametrize("text, declaration, message", [
+    ("t_s,qw,qx,qy,qz\n0,1,0,0,0\n0.5,1,0,0\n", "", "line 3: 4 field(s), but the header has 5 columns"),
+    ("t_s,qw,qx,qy,qz\n0,1,0,0,0\n0.5,1,0,x,0\n", "", "line 3, column 'qy': 'x' is not a number"),
+    ("t_s,qw,qx,qy,qz\n0,1,0,0,0\n0.5,nan,0,0,0\n", "", "line 3, column 'qw': nan is not a finite number"),
+    ("t_s,qw,qx,qy,qz\n0,1,0,0,0\n0.5,1,0,0,0\n0.5,1,0,0,0\n", "", "line 4, column 't_s': the time 0.5 repeats 0.5"),
+    ("t_s,qw,qx,qy,qz\n0,1,0,0,0\n0.5,1,0,0,0\n0.2,1,0,0,0\n", "", "the time 0.2 goes back from 0.5"),
+    ("t_s,qw,qx,qy,qz\n0,1,0,0,0\n50,1,0,0,0\n", "", "line 3, column 't_s': the time 50.0 s is past the scenario's "
+                                                    "duration (10 s); is the time in ms?"),
+    ("t_s,qw,qx,qy,qz\n0,1,0,0,0\n0.5,1.01,0,0,0\n", "", "line 3: the quaternion [1.01, 0.0, 0.0, 0.0] has norm 1.01 "
+                                                        "(off unit by 0.01"),
+    ("t_s,qw,qx,qy,qz\n0,1,0,0,0\n", "", "1 row(s) of samples: a trajectory needs at least two"),
+    ("# only a comment\n", "", "no header"),
+    ("time,qw,qx,qy,qz\n0,1,0,0,0\n1,1,0,0,0\n", 'time = "t"\n', "no time column 't' (time)"),
+    (GOOD, 'columns = ["qw", "qx", "qy", "q3"]\n', "the attitude's column(s) ['q3'] (columns) are not in the header"),
+    (GOOD, 'attitude = "euler"\ncolumns = ["qw", "qx", "qy"]\n', None),
+    ("t_s,a,b,c\n0,0,0,0\n1,90,45,10\n", 'attitude = "euler"\ncolumns = ["a", "b", "c"]\n',
+     "line 3, column 'a': the angle 90.0 is beyond 2 pi: are the angles in degrees?"),
+    (GOOD, 'scalar = "middle"\n', "scalar: expected one of 'first', 'last', got 'middle'"),
+    (GOOD, 'frame = "ned"\n', "frame: 'ned' is the local North-East-Down frame of the scenario's [earth] table"),
+    (GOOD, 'colour = "red"\n', "colour: unknown key"),
+    (GOOD, 'attitude = "dcm"\nsequence = "321"\n', "only Euler angles have a sequence"),
+])
+def test_bad_trajectory_files_are_refused_naming_the_line_and_column(tmp_path, capsys, text, declaration, message):
+    path = tmp_path / "sim.csv"
+    path.write_text(text)
+    if declaration:
+        (tmp_path / "sim.csv.toml").write_text(declaration)
+    code = main(["score", str(path), "--scenario", "tumbler-intermediate-axis"])
+    err = capsys.readouterr().err
+    if message is None:  # Euler angles within 2 pi: read and scored (and they fail: they are not the tumbler's)
+        assert code == 1, err
+        return
+    assert code == 2, err
+    assert message in err, err
+    assert str(path) in err or "sim.csv" in err
+
+
+def test_a_file_that_is_not_text_is_named(tmp_path, capsys):
+    path = tmp_path / "sim.csv"
+    path.write_bytes(b"t_s,qw,qx,qy,qz\n0,1,0,0,0\n\xff\xfe,1\n")
+    assert main(["score", str(path), "--scenario", "tumbler-intermediate-axis"]) == 2
+    assert "not UTF-8 text" in capsys.readouterr().err
+
+
+def test_normalise_declared_reads_a_drifted_quaternion_and_says_so(tmp_path):
+    t, q, w = _truth(101)
+    path = _write(tmp_path / "drift.csv", ["t_s", *Q], (t, q * (1 + 1e-4 * t[:, None])))
+    s = _score(path, normalise=True)
+    assert s.passed and "quaternions normalised (their norms were off unit by up to 0.001" in s.notes[0]
+
+
+def test_a_scenario_names_a_bad_trajectory_table(tmp_path):
+    """A [[trajectory]] whose name is a method's, or a file that is not there: refused naming the scenario and the
+    table."""
+    base = TUMBLER.path.read_text().replace('model = "../tumbler.xml"', f'model = "{TUMBLER.model}"')
+    (tmp_path / "sim.csv").write_text(GOOD)
+    for extra, message in (('[[trajectory]]\nfile = "sim.csv"\nname = "lie-rkmk4"\n', "is a method's name"),
+                           ('[[trajectory]]\nfile = "nowhere.csv"\n', "[trajectory[0]] file: no such file")):
+        path = tmp_path / "s.toml"
+        path.write_text(base + "\n" + extra)
+        with pytest.raises(ValueError, match=message.replace("[", r"\[").replace("]", r"\]")):
+            load_scenario(path)

@@ -1,0 +1,205 @@
+"""Scoring a trajectory file against a scenario's reference: one run of some simulator, so no order — its attitude
+and rate errors over time, how the attitude error grows (the exponent ``p`` of ``error ~ t^p``), the invariants of a
+torque-free body computed from its samples, a verdict by its tolerance, and the detective's findings when it fails.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import rotations as rot
+from ..metrics import kinetic_energy, world_momentum
+from .convention import Convention, to_world
+from .detective import EXPLAINS, investigate
+from .earth import Earth
+from .reader import TrajectoryFileError, read_samples
+
+__all__ = ["FileScore", "score_file", "growth_exponent", "PLOT_POINTS"]
+
+#: Points of a file's error series kept for the figures (spread evenly in log time).
+PLOT_POINTS = 400
+
+
+@dataclass
+class FileScore:
+    """What a trajectory file scored (JSON: :meth:`to_json`). Errors against the reference: the attitude [rad], the
+    body rate [rad/s] (None without rates); drifts relative (energy, the momentum's magnitude in the world; None
+    without rates or with a torque); ``growth``: the exponent of the attitude error's growth over the last nine
+    tenths of the run (None when it stays at rounding); ``outcome`` PASSED or FAILED against ``tolerance`` (and
+    ``rate_tolerance``); ``findings``: the detective's readings that explain a failure (best first), and
+    ``tried``: how many it tried; ``series``: times and errors for the figures."""
+
+    name: str
+    file: str
+    convention: str
+    rows: int
+    span: tuple
+    max_attitude_error: float
+    final_attitude_error: float
+    max_rate_error: float | None
+    growth: float | None
+    energy_drift: float | None
+    momentum_drift: float | None
+    tolerance: float
+    rate_tolerance: float | None
+    outcome: str
+    source: str = ""
+    findings: list = field(default_factory=list)
+    best_reading: dict | None = None
+    tried: int = 0
+    notes: list = field(default_factory=list)
+    series: dict = field(default_factory=dict)
+
+    @property
+    def passed(self) -> bool:
+        return self.outcome == "PASSED"
+
+    def sentence(self) -> str:
+        """The verdict and the detective's word in one sentence."""
+        head = (f"{self.name}: largest attitude error {self.max_attitude_error:.3g} rad"
+                + (f", rate error {self.max_rate_error:.3g} rad/s" if self.max_rate_error is not None else "")
+                + f" ({self.outcome} against {self.tolerance:g} rad"
+                + (f" and {self.rate_tolerance:.2g} rad/s)" if self.rate_tolerance is not None else ")"))
+        if self.findings:
+            f = self.findings[0]
+            what = "rates" if f["judged"] == "rates" else "attitudes"
+            err = f["max_rate_error"] if f["judged"] == "rates" else f["max_attitude_error"]
+            unit = "rad/s" if f["judged"] == "rates" else "rad"
+            return f"{head}; this file's {what} match the reference to {err:.2g} {unit} {f['change']}"
+        if self.best_reading is not None:
+            b = self.best_reading
+            if b["max_attitude_error"] >= 0.5 * self.max_attitude_error:
+                return f"{head}; none of the {self.tried} usual convention mistakes explains it, or halves it"
+            return (f"{head}; none of the {self.tried} usual convention mistakes explains it (the closest, "
+                    f"{b['change']}, leaves {b['max_attitude_error']:.3g} rad)")
+        return head
+
+    def to_json(self) -> dict:
+        out = {k: getattr(self, k) for k in ("name", "file", "convention", "rows", "max_attitude_error",
+                                             "final_attitude_error", "max_rate_error", "growth", "energy_drift",
+                                             "momentum_drift", "tolerance", "rate_tolerance", "outcome", "tried")}
+        out["span"] = list(self.span)
+        out["sentence"] = self.sentence()
+        for key in ("source", "findings", "best_reading", "notes"):
+            if getattr(self, key):
+                out[key] = getattr(self, key)
+        out["series"] = {k: [None if not np.isfinite(v) else float(f"{v:.6g}") for v in np.asarray(x, dtype=float)]
+                         for k, x in self.series.items()}  # for the figure: about PLOT_POINTS points in log time
+        return out
+
+
+def growth_exponent(t, err, *, floor: float = 1e-15) -> float | None:
+    """The exponent ``p`` of ``err ~ t^p`` fitted (least squares in log-log) over the samples after a tenth of the
+    span where the error is above ``floor``; None with fewer than ten such samples."""
+    t, err = np.asarray(t, dtype=float), np.asarray(err, dtype=float)
+    keep = (t >= t[-1] / 10) & (t > 0) & (err > floor)
+    if keep.sum() < 10:
+        return None
+    p = np.polyfit(np.log(t[keep]), np.log(err[keep]), 1)[0]
+    return float(p)
+
+
+def _log_spread(t, n: int) -> np.ndarray:
+    """Indices of about ``n`` samples of ``t`` spread evenly in log time (the first and last kept)."""
+    if len(t) <= n:
+        return np.arange(len(t))
+    positive = t[t > 0]
+    start = positive[0] if len(positive) else 1.0
+    marks = np.geomspace(start, max(t[-1], start), n)
+    idx = np.unique(np.clip(np.searchsorted(t, marks), 0, len(t) - 1))
+    return np.unique(np.concatenate([[0], idx, [len(t) - 1]]))
+
+
+def score_file(conv: Convention, reference, *, inertia, duration: float, earth: Earth | None, tolerance: float,
+               torque_free: bool) -> FileScore:
+    """Score ``conv``'s file: ``reference(t) -> (q, omega, mask)`` the scenario's reference at any times (``mask``:
+    where it is defined), ``inertia`` the body's, ``tolerance`` the default limit of the attitude error [rad]."""
+    samples = read_samples(conv, duration=duration)
+    try:
+        world = to_world(conv, samples.t, samples.attitude, samples.rates, earth=earth, where=str(conv.file),
+                         row0=0)
+    except ValueError as exc:  # a quaternion or matrix off the unit sphere: the message names row k (0-based here)
+        raise TrajectoryFileError(_with_line(str(exc), samples.lines)) from None
+    notes = [*world.notes, *_euler_notes(conv, samples)]
+    q_ref, w_ref, mask = reference(world.t)
+    if not mask.all():
+        notes.append(f"{int((~mask).sum())} of {len(mask)} rows at times where the reference is not defined (a fine "
+                     "reference's own grid): left out")
+    att = np.full(len(world.t), np.nan)
+    att[mask] = rot.attitude_error(world.q[mask], q_ref[mask])
+    rate = None
+    if world.omega is not None:
+        rate = np.full(len(world.t), np.nan)
+        rate[mask] = np.linalg.norm(world.omega[mask] - w_ref[mask], axis=1)
+    tol = conv.tolerance or tolerance
+    # the rates' limit, unless declared: the attitude's relative accuracy on the body's initial rate
+    rate_tol = conv.rate_tolerance or tol * max(float(np.linalg.norm(w_ref[mask][0])), 1e-3)
+    max_att = float(np.nanmax(att))
+    max_rate = float(np.nanmax(rate)) if rate is not None else None
+    passed = max_att <= tol and (max_rate is None or max_rate <= rate_tol)
+    energy = momentum = None
+    if torque_free and world.omega is not None:
+        E = kinetic_energy(inertia, world.omega)
+        L = np.linalg.norm(world_momentum(inertia, world.q, world.omega), axis=1)
+        energy = float(np.max(np.abs(E - E[0])) / E[0]) if E[0] > 0 else None
+        momentum = float(np.max(np.abs(L - L[0])) / L[0]) if L[0] > 0 else None
+    keep = _log_spread(world.t, PLOT_POINTS)
+    series = {"t": world.t[keep], "attitude_error": att[keep],
+              **({"rate_error": rate[keep]} if rate is not None else {})}
+    score = FileScore(name=conv.name, file=str(conv.file), convention=conv.describe(), rows=len(world.t),
+                      span=(float(world.t[0]), float(world.t[-1])), max_attitude_error=max_att,
+                      final_attitude_error=float(att[mask][-1]), max_rate_error=max_rate,
+                      growth=growth_exponent(world.t[mask], att[mask]), energy_drift=energy, momentum_drift=momentum,
+                      tolerance=tol, rate_tolerance=rate_tol if rate is not None else None,
+                      outcome="PASSED" if passed else "FAILED",
+                      source=conv.source, notes=notes, series=series)
+    if not passed:
+        _investigate(score, conv, samples, reference, earth, tol, rate_tol)
+    return score
+
+
+def _investigate(score: FileScore, conv, samples, reference, earth, tol, rate_tol) -> None:
+    findings, score.tried = investigate(conv, samples, reference, earth=earth)
+    explained = []
+    for f in findings:
+        given = score.max_attitude_error if f.judged == "attitude" else score.max_rate_error
+        limit = tol if f.judged == "attitude" else rate_tol
+        if given and f.error is not None and f.error <= EXPLAINS * given and f.error <= limit:
+            explained.append(f)
+    explained.sort(key=lambda f: f.error / (score.max_attitude_error if f.judged == "attitude"
+                                            else score.max_rate_error))
+    score.findings = [f.to_json() for f in explained]
+    attitude = [f for f in findings if f.judged == "attitude"]
+    if not explained and attitude:
+        score.best_reading = attitude[0].to_json()
+
+
+def _with_line(message: str, lines) -> str:
+    """``row k`` (0-based) in a conversion's message as the file's line."""
+    m = re.search(r", row (\d+):", message)
+    if not m:
+        return message
+    k = int(m.group(1))
+    return message.replace(m.group(0), f", line {lines[k]}:")
+
+
+def _euler_notes(conv: Convention, samples) -> list:
+    """Rows near the Euler sequence's singularity: their outer angles are ill-conditioned, though the attitude they
+    give is exact to the printed digits (so the file is scored, and this said)."""
+    if conv.attitude != "euler":
+        return []
+    angles = np.radians(samples.attitude) if conv.angle_unit == "deg" else samples.attitude
+    seq = conv.sequence
+    middle = angles[:, 1]
+    symmetric = seq[0] == seq[2]
+    distance = np.abs(np.sin(middle)) if symmetric else np.abs(np.cos(middle))
+    near = distance < 1e-3
+    if not near.any():
+        return []
+    k = int(np.argmax(near))
+    return [f"{int(near.sum())} row(s) within 1e-3 rad of the {seq} sequence's singularity (the first: line "
+            f"{samples.lines[k]}): their outer angles are ill-conditioned, but the attitude they give is exact to the "
+            "printed digits"]
