@@ -295,3 +295,42 @@ def test_a_scenario_names_a_bad_trajectory_table(tmp_path):
         path.write_text(base + "\n" + extra)
         with pytest.raises(ValueError, match=message.replace("[", r"\[").replace("]", r"\]")):
             load_scenario(path)
+
+
+@pytest.mark.parametrize("mistake", ["declared-world", "earth-backwards", "rates-relative-to-ned"])
+def test_the_detective_finds_the_frames_mistakes(tmp_path, mistake):
+    """Truth: the exact answer of the check case in the NED frame along the fall (xcheck's own, which SIM 01 matches
+    to 6e-11 rad), written with one mistake about the frame: the NED attitude declared relative to the world; the
+    Earth turning the other way; body rates relative to the NED frame declared relative to inertial space."""
+    from dataclasses import replace
+
+    t = np.linspace(0.0, 30.0, 301)
+    q_world, w = scenario_reference(NESC).at(t)[:2]
+    earth = replace(NESC.earth, rate=-NESC.earth.rate) if mistake == "earth-backwards" else NESC.earth
+    q_frame, w_frame = ned_frames(earth, t)
+    q_ned = rot.quat_mul(rot.quat_conj(q_frame), q_world)
+    if mistake == "rates-relative-to-ned":  # the body's rate relative to the frame, in body components
+        w = w - rot.quat_rotate(rot.quat_conj(q_ned), w_frame)
+    path = _write(tmp_path / f"{mistake}.csv", ["t_s", *Q, *W], (t, q_ned, w))
+    declared = {} if mistake == "declared-world" else {"frame": "ned"}
+    conv = Convention(file=path, name=mistake, **declared)
+    ctx = run_context(NESC)
+    s = score_file(conv, scenario_reference(NESC).at, inertia=ctx.inertia, duration=30.0, earth=NESC.earth,
+                   tolerance=1e-8, torque_free=True)
+    assert not s.passed and s.findings, s.sentence()
+    words = {"declared-world": "read relative to the local NED frame", "earth-backwards": "the Earth turned the other way",
+             "rates-relative-to-ned": "with the rates relative to the frame"}[mistake]
+    assert words in s.findings[0]["change"], s.findings[:3]
+    best = s.findings[0]
+    assert (best["max_rate_error"] if best["judged"] == "rates" else best["max_attitude_error"]) < 1e-9
+
+
+def test_the_history_records_each_files_errors():
+    """The nightly's record: a file's largest errors and growth beside its check (issue 39)."""
+    from xcheck.history.store import report_metrics
+    from xcheck.study import run_study
+
+    st = run_study(NESC, methods=["lie-rkmk4"], quick=True, workers=1, timing=False)
+    rows = {(m, k): v for _, m, _, k, v in report_metrics({"scenarios": [st.data]})}
+    assert rows[("file:SIM 02", "file_max_attitude_error")] == pytest.approx(6.48e-2, rel=0.01)
+    assert rows[("", "check:expected-failure:SIM 02")] == 1.0 and rows[("", "check:file:SIM 01")] == 1.0

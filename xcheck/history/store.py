@@ -426,6 +426,10 @@ def report_metrics(results: dict):
         for check in sc.get("checks", []):
             status = check.get("status") or ("pass" if check["passed"] else "fail")
             yield name, "", None, f"check:{check['name']}", {"pass": 1.0, "inconclusive": 0.5, "fail": 0.0}[status]
+        for file, f in sc.get("files", {}).items():  # a trajectory file of another simulator (issue 39)
+            for metric in ("max_attitude_error", "max_rate_error", "growth"):
+                if f.get(metric) is not None:
+                    yield name, f"file:{file}", None, f"file_{metric}", f[metric]
         for method, m in sc["methods"].items():
             yield name, method, None, "observed_order", m.get("observed_order")
             yield name, method, None, "verdict", (0.5 if m.get("verdict") == "inconclusive"

@@ -87,6 +87,9 @@ def _readings(conv: Convention, earth: Earth | None, has_rates: bool):
                         reading = replace(conv, sequence=seq, direction=direction, angle_unit=unit)
                         out.append(("read " + ", ".join(words),
                                     (reading, earth, None if order == cols else [2, 1, 0]), "attitude"))
+    if conv.frame == "world" and earth is not None:
+        out.append(("read relative to the local NED frame of the scenario's [earth]", replace(conv, frame="ned"),
+                    "attitude"))
     if conv.frame == "ned" and earth is not None:
         out += [("if its frame were inertial (not turning with the Earth)", replace(conv, frame="world"), "attitude"),
                 ("if the Earth turned the other way", (conv, replace(earth, rate=-earth.rate), None), "attitude"),
