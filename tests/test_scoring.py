@@ -166,7 +166,7 @@ def _write(path, header, cols):
 
 def _score(path, **declared):
     ctx = run_context(TUMBLER)
-    conv = Convention(file=path, name=path.stem, declared=tuple(declared), **declared)
+    conv = Convention(file=path, name=path.stem, **declared)
     return score_file(conv, scenario_reference(TUMBLER).at, inertia=ctx.inertia, duration=TUMBLER.duration,
                       earth=None, tolerance=1e-6, torque_free=True)
 

@@ -82,8 +82,6 @@ class Convention:
     tolerance: float | None = None
     rate_tolerance: float | None = None
     source: str = ""
-    #: the keys the declaration gave (the detective changes only what a file's maker could have got wrong)
-    declared: tuple = field(default=(), compare=False)
 
     @property
     def attitude_columns(self) -> tuple:
@@ -163,7 +161,7 @@ def read_convention(reader, *, earth: Earth | None) -> Convention:
     for key in ("tolerance", "rate_tolerance"):
         if reader.has(key):
             values[key] = reader.positive(key)
-    conv = Convention(**values, declared=tuple(k for k in reader.table if k != "file"))
+    conv = Convention(**values)
     width = _WIDTH[conv.attitude]
     if conv.columns is not None and len(conv.columns) != width:
         reader.fail("columns", f"a {conv.attitude} has {width} columns, got {len(conv.columns)}: {list(conv.columns)}")
