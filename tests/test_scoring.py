@@ -334,3 +334,17 @@ def test_the_history_records_each_files_errors():
     rows = {(m, k): v for _, m, _, k, v in report_metrics({"scenarios": [st.data]})}
     assert rows[("file:SIM 02", "file_max_attitude_error")] == pytest.approx(6.48e-2, rel=0.01)
     assert rows[("", "check:expected-failure:SIM 02")] == 1.0 and rows[("", "check:file:SIM 01")] == 1.0
+
+
+def test_the_bricks_model_holds_the_cases_mass_properties():
+    """Truth: brick_inertia.dml of the NESC data (slug ft^2 and slug; 1 slug = 14.593902937206364 kg, 1 ft = 0.3048 m,
+    both exact by definition): MuJoCo's compiled body holds them to the last bit, principal axes along the body's."""
+    from xcheck.models import load_body
+
+    body = load_body(NESC.model)
+    slug_ft2 = 14.593902937206364 * 0.3048 ** 2
+    np.testing.assert_allclose(np.diag(body.inertia), np.array([0.00189422, 0.006211019, 0.007194665]) * slug_ft2,
+                               rtol=1e-15)
+    assert np.count_nonzero(body.inertia - np.diag(np.diag(body.inertia))) == 0
+    assert body.mass == pytest.approx(0.155404754 * 14.593902937206364, rel=1e-15)
+    np.testing.assert_allclose(NESC.omega0, np.radians([10.0, 20.0, 30.0]), rtol=1e-15)
