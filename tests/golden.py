@@ -64,7 +64,7 @@ def canonical(doc):
         for k, v in doc.items():
             if k in _VOLATILE:
                 continue
-            if k in ("model", "table") and isinstance(v, str):  # paths differ between clones
+            if k in ("model", "table", "file") and isinstance(v, str):  # paths differ between clones
                 v = Path(v).name
             elif k in ("note", "order_note", "message") and isinstance(v, str):
                 v = _NUMBER.sub("#", v)
