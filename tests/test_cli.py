@@ -126,12 +126,14 @@ def test_quick_report_numbers_match_the_golden_copy(quick_report):
     beyond round-off (tolerances in tests/golden.py)."""
     from golden import GOLDEN, canonical, compare
 
-    from xcheck.runners import BASILISK_METHODS, RUNNERS
+    from xcheck.runners import BASILISK_METHODS, BULLET_METHODS, RUNNERS
 
     want = json.loads(GOLDEN.read_text())
-    if any(m in sc["methods"] and m not in RUNNERS for sc in want["scenarios"] for m in BASILISK_METHODS):
-        pytest.skip("the golden copy holds Basilisk's methods, and Basilisk is not available here (not installed, or "
-                    "left out by $XCHECK_WITHOUT): a report without them has other floors and cannot be compared")
+    for engine, names in (("Basilisk", BASILISK_METHODS), ("PyBullet", BULLET_METHODS)):
+        if any(m in sc["methods"] and m not in RUNNERS for sc in want["scenarios"] for m in names):
+            pytest.skip(f"the golden copy holds {engine}'s methods, and {engine} is not available here (not installed, "
+                        "or left out by $XCHECK_WITHOUT): a report without them has other floors and cannot be "
+                        "compared")
     _, out = quick_report
     got = canonical(json.loads((out / "latest" / "results.json").read_text()))
     differences = compare(got, want)

@@ -18,7 +18,7 @@ def test_readme_opens_with_exactly_two_setup_commands():
     lines = [line for line in first_block.group(1).splitlines() if line.strip()]
     assert len(lines) == 2
     assert lines[0].endswith("xcheck report") and "pip install" in lines[0]
-    assert "pytest" in lines[1] and ".[test,basilisk]" in lines[1]  # the test extra and the second engine
+    assert "pytest" in lines[1] and ".[test,basilisk,engines]" in lines[1]  # the test extra and the engines
 
 
 def test_version_and_list(capsys):

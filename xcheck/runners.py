@@ -78,6 +78,13 @@ class Runner:
     #: ``() -> note or None``: a known finding that the method's failed order check names (an engine release's RK4
     #: of second order, :func:`xcheck.engines.findings.release_note`), read for the version installed; None: none
     finding: Callable[[], str | None] | None = None
+    #: ``(model path) -> why or None``: why this method cannot represent a scenario's body (its engine has no model
+    #: here of a top's joint or a gyrostat's wheels); such a study leaves it out and says why. None: any body.
+    cannot: Callable[[object], str | None] | None = None
+
+    def cannot_run(self, model) -> str | None:
+        """Why this method cannot represent the body of the MJCF ``model``, or None."""
+        return None if self.cannot is None else self.cannot(model)
 
     def run_at(self, ctx: RunContext, dt: float, rtol: float | None = None) -> Trajectory:
         """``run`` at the step ``dt`` and, for an adaptive method, the tolerance ``rtol`` (None: its defaults)."""
@@ -159,6 +166,36 @@ def _basilisk_input_order(torque: dict | None, model=None):
                    "over the step: first order")
 
 
+def _joint_kinds(model) -> set:
+    """The kinds of joint an MJCF declares besides the free joint (``ball``, ``hinge``: a top's pivot, a gyrostat's
+    wheels), read as text like :func:`_declares_pulses` (planning a study imports no MuJoCo)."""
+    import re
+    from pathlib import Path
+
+    try:
+        text = re.sub(r"<!--.*?-->", "", Path(model).read_text(encoding="utf-8", errors="replace"), flags=re.S)
+    except OSError:
+        return set()
+    kinds = set()
+    for tag in re.findall(r"<joint\b[^>]*>", text):
+        m = re.search(r"\btype\s*=\s*[\"'](\w+)[\"']", tag)
+        kinds.add(m.group(1) if m else "hinge")  # MJCF's default joint type is a hinge
+    return kinds - {"free"}
+
+
+def _free_bodies_only(engine: str):
+    """``cannot`` of an engine whose bodies here are free bodies only."""
+    def cannot(model) -> str | None:
+        kinds = _joint_kinds(model)
+        if "ball" in kinds:
+            return (f"{engine}'s body here is a free body: a top on its ball joint under gravity is not modelled in "
+                    "xcheck's engine yet")
+        if kinds:
+            return f"{engine}'s body here is a free body: a gyrostat's wheels are not modelled in xcheck's engine yet"
+        return None
+    return cannot
+
+
 def _declares_pulses(model) -> bool:
     """Whether an MJCF declares a motor's pulse (``<numeric name="xcheck_pulse:...">``, outside comments): read as
     text, so that planning a study (the pytest plugin's collection) imports no MuJoCo; the model's loading checks
@@ -234,6 +271,29 @@ if available("mjx"):
                     for name, (order, summary, integrator, x64) in MJX_METHODS.items()})
 
 
+def _bullet(path):
+    def run(ctx: RunContext, dt: float) -> Trajectory:
+        from .engines.bullet import simulate
+
+        return simulate(ctx.inertia, path=path, q0=ctx.q0, omega0=ctx.omega0, dt=dt, duration=ctx.duration,
+                        torque=ctx.torque)
+    return run
+
+
+#: PyBullet's methods (issue 40): Bullet's two paths for one body, registered when ``pybullet`` is installed (the
+#: extra ``engines``). Both step semi-implicitly and hold the torque over the step: first order.
+BULLET_METHODS = {
+    "pybullet-multibody": "Bullet's btMultiBody (PyBullet's createMultiBody; its default angular damping 0.04 set "
+                          "to 0), semi-implicit Euler, the torque held over each step",
+    "pybullet-maximal": "Bullet's btRigidBody (maximal coordinates, its implicit gyroscopic term), semi-implicit "
+                        "Euler, the torque held over each step",
+}
+if available("pybullet"):
+    RUNNERS.update({name: Runner(name, "pybullet", 1, summary, _bullet(name.removeprefix("pybullet-")),
+                                 line_style="-.", cannot=_free_bodies_only("PyBullet"))
+                    for name, summary in BULLET_METHODS.items()})
+
+
 def unknown_method(name: str) -> str:
     """The message for a method name that is not a runner: an engine's that is not installed says how to get it."""
     if name in BASILISK_METHODS:
@@ -242,6 +302,8 @@ def unknown_method(name: str) -> str:
                     "leaves out here")
         return (f"{name!r} is Basilisk's, which is not installed here: pip install 'xcheck[basilisk]' (the PyPI "
                 "package bsk)")
+    if name in BULLET_METHODS:
+        return f"{name!r} is PyBullet's, which is not installed here: pip install 'xcheck[engines]' (PyPI pybullet)"
     if name in MJX_METHODS:
         return (f"{name!r} is MJX's, which is not installed here: pip install 'xcheck[mjx]' (the PyPI packages "
                 "mujoco-mjx and jax)")

@@ -51,6 +51,7 @@ def study_lines(st) -> list[str]:
         exp = m.expected_order if m.expected_order is not None else "adaptive"
         err_text = "—" if m.finest is None else format(m.finest.attitude_error, ".2e")
         lines.append(f"  {name:22s} {exp!s:>8s} {obs:>8s} {err_text:>13s}  {m.status_text}")
+    lines += [f"  {name:22s} not run: {why}" for name, why in st.not_run.items()]
     if st.files:
         from .score import file_lines
 

@@ -36,7 +36,9 @@ ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco", "mujoco
                                           "opt.magnetic = μ0 H) on MuJoCo's states")),
            "basilisk": Engine("basilisk", "bsk", "xcheck.engines.basilisk", "Basilisk",
                               warm=("xcheck.engines.basilisk", "Basilisk.simulation.spacecraft"), to_workers=True),
-           "mjx": Engine("mjx", "mujoco-mjx", "xcheck.engines.mjx", "jax", opt_in=True)}
+           "mjx": Engine("mjx", "mujoco-mjx", "xcheck.engines.mjx", "jax", opt_in=True),
+           "pybullet": Engine("pybullet", "pybullet", "xcheck.engines.bullet", "pybullet",
+                              warm=("xcheck.engines.bullet",))}
 
 
 #: An optional engine is left out, although installed, when ``$XCHECK_WITHOUT`` names it (comma-separated):

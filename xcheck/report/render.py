@@ -364,6 +364,9 @@ def _scenario_blocks(st, figs) -> list:
             rows.append([Cell(name, m.verdict), *(_run_cell(by_tol.get(t)) for t in tols),
                          Cell(f"{tight.evaluations:,}" if tight and tight.evaluations else "—", num=True)])
         blocks.append(Table(["method", *(f"rtol {t:.0e}" for t in tols), "evaluations"], rows))
+    if st.not_run:  # never a silent gap
+        blocks.append(Para([("Not run: ", "b"), ("; ".join(f"{m}: {why}" for m, why in st.not_run.items()) + ".",
+                                                 None)], small=True))
     blocks += _file_blocks(st)
     keys = [k for k in ("1e-03", "1e-06", "1e-09")]
     blocks.append(Para("What a tolerance costs: the largest step at which each method stays within it over the "

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..base.errors import UsageError
 from ..metrics import (
     TOLERANCES,
     StepWithin,
@@ -30,7 +31,7 @@ from .files import score_trajectories
 from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_method
 
 __all__ = ["run_study", "run_studies", "assemble", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows",
-           "planned_checks", "default_methods", "comparison_partner"]
+           "planned_checks", "default_methods", "not_run", "comparison_partner"]
 
 SCHEMA = "xcheck.convergence/1"
 
@@ -62,6 +63,8 @@ class StudyResult:
     wheels_stiffness: dict | None = None
     #: the scenario's trajectory files, scored (name -> :class:`xcheck.scoring.score.FileScore`)
     files: dict = field(default_factory=dict)
+    #: methods left out because they cannot represent the scenario's body: name -> why
+    not_run: dict = field(default_factory=dict)
 
     @property
     def outcome(self) -> str:
@@ -101,7 +104,8 @@ class StudyResult:
                 **({"wheel_speeds": list(sc.wheel_speeds)} if sc.wheel_speeds is not None else {}),
                 **({"model_torque": self.model_torque} if self.model_torque else {}),
                 **({"wheels_stiffness": self.wheels_stiffness} if self.wheels_stiffness else {}),
-                **({"files": {n: f.to_json() for n, f in self.files.items()}} if self.files else {})}
+                **({"files": {n: f.to_json() for n, f in self.files.items()}} if self.files else {}),
+                **({"not_run": dict(self.not_run)} if self.not_run else {})}
 
 
 def default_methods(scenario: Scenario) -> list[str]:
@@ -110,7 +114,15 @@ def default_methods(scenario: Scenario) -> list[str]:
 
     if scenario.methods:
         return list(scenario.methods)
-    return [m for m, r in RUNNERS.items() if not r.opt_in or asked_for(r.engine)]
+    return [m for m, r in RUNNERS.items() if (not r.opt_in or asked_for(r.engine)) and not r.cannot_run(scenario.model)]
+
+
+def not_run(scenario: Scenario) -> dict:
+    """The methods a study of ``scenario`` leaves out because they cannot represent its body, and why (the report
+    says so: never a silent gap)."""
+    if scenario.methods:
+        return {}
+    return {m: why for m, r in RUNNERS.items() if (not r.opt_in) for why in [r.cannot_run(scenario.model)] if why}
 
 
 def comparison_partner(scenario: Scenario, method: str, methods) -> str | None:
@@ -148,6 +160,9 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     for m in methods:
         if m not in RUNNERS:
             raise ValueError(f"methods: unknown {m!r}; expected one of {', '.join(RUNNERS)}")
+        why = RUNNERS[m].cannot_run(scenario.model)
+        if why:
+            raise UsageError(f"methods: {m} cannot run {scenario.name}: {why}")
     steps = sorted((float(s) for s in (steps or (scenario.quick_steps if quick else scenario.steps))), reverse=True)
     try:
         check_steps(steps, scenario.duration)
@@ -275,7 +290,8 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
         m.verdict = verdict(m.name, checks)
     return StudyResult(scenario=scenario, steps=list(steps), methods=methods, checks=checks, order_floor=floor,
                        quick=quick, series=series, comparisons=comparisons, reference_check=reference_check,
-                       inconclusive=reasons)
+                       inconclusive=reasons, not_run={m: why for m, why in not_run(scenario).items()
+                                                      if m not in methods})
 
 
 def _steady_hint(scenario: Scenario) -> str:

@@ -1,0 +1,127 @@
+"""Bullet through PyBullet (PyPI ``pybullet``) as an engine (issue 40): one rigid body in a direct (headless)
+physics client, stepped by Bullet's own integrator through either of its two paths.
+
+* ``multibody``: a ``btMultiBody`` (reduced coordinates, Featherstone's algorithm: PyBullet's default path for
+  ``createMultiBody``), the base floating. Bullet's multibodies carry an angular damping of 0.04 by default
+  (``btMultiBody.cpp``: ``m_angularDamping(0.04f)``), which takes a third of a tumbling box's angular momentum in
+  2 s: xcheck sets it to zero, and the finding says what the default costs.
+* ``maximal``: a ``btRigidBody`` (``useMaximalCoordinates=True``), with Bullet's default gyroscopic term
+  ``BT_ENABLE_GYROSCOPIC_FORCE_IMPLICIT_BODY`` (``btRigidBody.cpp``: one implicit step of Euler's equation in the
+  body frame). A maximal-coordinate body needs a collision shape: without one it has no inertia, and once given
+  one by ``changeDynamics`` it is never moved (a test keeps this). It is given a box, and nothing to collide with.
+
+Both paths step semi-implicitly (the velocity first, then the attitude with the new velocity): first order. The
+torque is applied through ``applyExternalTorque`` in world components before each step, which Bullet clears after
+it: evaluated at the step's start and held over it (first order, as the step itself).
+
+Conventions at this boundary (a test round-trips them): Bullet's quaternions are scalar last ``[x, y, z, w]``,
+body -> world; its angular velocity is in world components. Bullet's inertia is a diagonal in the body's inertial
+frame: the body is run in its principal frame, ``q_principal = q ⊗ q_V`` and ``w_principal = V^T w`` with ``V`` the
+principal axes (columns, body components), and converted back. Gravity is off (only the attitude is compared).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from .. import rotations as rot
+from ..body import principal_axes
+from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
+
+__all__ = ["simulate", "PATHS", "to_bullet", "from_bullet", "DEFAULT_ANGULAR_DAMPING"]
+
+#: Bullet's two paths for one body.
+PATHS = ("multibody", "maximal")
+#: ``btMultiBody``'s default angular damping (what ``createMultiBody`` gives a body unless it is changed).
+DEFAULT_ANGULAR_DAMPING = 0.04
+
+
+@functools.lru_cache(maxsize=1)
+def _pybullet():
+    """PyBullet, imported with its banner ("pybullet build time: ...", which C writes to the standard error as the
+    module loads: ``pybullet.c``) kept off the terminal."""
+    import os
+    import sys
+
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            import pybullet
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+    return pybullet
+
+
+def to_bullet(q, omega, V):
+    """Our ``(q, omega)`` (body -> world, body rate) of a body with principal axes ``V`` -> Bullet's ``(orientation
+    [x, y, z, w] of the principal frame, angular velocity in world components)``."""
+    qp = rot.quat_mul(q, rot.dcm_to_quat(V))
+    w_world = rot.quat_rotate(q, omega)
+    return np.concatenate([qp[..., 1:], qp[..., :1]], axis=-1), w_world
+
+
+def from_bullet(orientation, w_world, V):
+    """Bullet's ``(orientation [x, y, z, w] of the principal frame, world angular velocity)`` -> our ``(q, omega)``."""
+    orientation = np.asarray(orientation, dtype=float)
+    qp = np.concatenate([orientation[..., 3:], orientation[..., :3]], axis=-1)
+    q = rot.quat_mul(qp, rot.quat_conj(rot.dcm_to_quat(V)))
+    return q, rot.quat_rotate(rot.quat_conj(q), np.asarray(w_world, dtype=float))
+
+
+def simulate(inertia, *, path: str, q0, omega0, dt: float, duration: float, torque=None, mass: float = 1.0,
+             angular_damping: float = 0.0) -> Trajectory:
+    """Run Bullet's ``path`` (:data:`PATHS`) on a body of ``inertia`` (3, 3) [kg m^2] from ``(q0, omega0)`` (ours)
+    for ``duration`` s at step ``dt``; ``torque`` None or ``(t, q, omega) -> (3,)`` [N m] in body components, held
+    over each step. ``angular_damping``: Bullet's (xcheck's runs: 0; the finding: the multibody's default)."""
+    if path not in PATHS:
+        raise ValueError(f"path: unknown {path!r}; expected one of {', '.join(PATHS)}")
+    q0, omega0 = check_initial_state(q0, omega0)
+    n, last_h = step_plan(float(dt), float(duration))
+    moments, V = principal_axes(np.asarray(inertia, dtype=float))
+    p = _pybullet()
+    client = p.connect(p.DIRECT)
+    try:
+        p.setGravity(0, 0, 0, physicsClientId=client)
+        shape = (p.createCollisionShape(p.GEOM_BOX, halfExtents=[0.05, 0.05, 0.05], physicsClientId=client)
+                 if path == "maximal" else -1)
+        orientation, w_world = to_bullet(q0, omega0, V)
+        body = p.createMultiBody(baseMass=float(mass), baseCollisionShapeIndex=shape, basePosition=[0, 0, 0],
+                                 baseOrientation=orientation.tolist(), useMaximalCoordinates=path == "maximal",
+                                 physicsClientId=client)
+        p.changeDynamics(body, -1, localInertiaDiagonal=moments.tolist(), linearDamping=0.0,
+                         angularDamping=float(angular_damping), physicsClientId=client)
+        p.resetBaseVelocity(body, [0, 0, 0], w_world.tolist(), physicsClientId=client)
+        orn = np.empty((n + 1, 4))
+        ang = np.empty((n + 1, 3))
+        orn[0], ang[0] = orientation, w_world
+        t = np.arange(n + 1) * float(dt)
+        t[-1] = float(duration)
+        p.setPhysicsEngineParameter(fixedTimeStep=float(dt), numSubSteps=0, physicsClientId=client)
+        for k in range(n):
+            h = float(dt) if k < n - 1 else last_h
+            if k == n - 1 and h != dt:
+                p.setPhysicsEngineParameter(fixedTimeStep=h, physicsClientId=client)
+            if torque is not None:
+                q_k, w_k = from_bullet(orn[k], ang[k], V)
+                tau_world = rot.quat_rotate(q_k, np.asarray(torque(t[k], q_k, w_k), dtype=float))
+                p.applyExternalTorque(body, -1, tau_world.tolist(), p.WORLD_FRAME, physicsClientId=client)
+            p.stepSimulation(physicsClientId=client)
+            orn[k + 1] = p.getBasePositionAndOrientation(body, physicsClientId=client)[1]
+            ang[k + 1] = p.getBaseVelocity(body, physicsClientId=client)[1]
+    finally:
+        p.disconnect(physicsClientId=client)
+    q, omega = from_bullet(orn, ang, V)
+    method = f"pybullet-{path}"
+    traj = Trajectory(t=t, q=continuous_quaternions(q), omega=omega, method=method, dt=float(dt),
+                      extras={"evaluations": n, "torque_input": "held over each step" if torque is not None else None})
+    bad = ~(np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(omega), axis=1))
+    if bad.any():
+        k = int(np.argmax(bad))
+        traj = Trajectory(t=t[:k], q=traj.q[:k], omega=omega[:k], method=method, dt=float(dt), extras=traj.extras,
+                          status="failed", message=f"{method}: the state became non-finite at t = {t[k]:.6g} s")
+    return traj
