@@ -7,8 +7,9 @@ physics client, stepped by Bullet's own integrator through either of its two pat
   2 s: xcheck sets it to zero, and the finding says what the default costs.
 * ``maximal``: a ``btRigidBody`` (``useMaximalCoordinates=True``), with Bullet's default gyroscopic term
   ``BT_ENABLE_GYROSCOPIC_FORCE_IMPLICIT_BODY`` (``btRigidBody.cpp``: one implicit step of Euler's equation in the
-  body frame). A maximal-coordinate body needs a collision shape: without one it has no inertia, and once given
-  one by ``changeDynamics`` it is never moved (a test keeps this). It is given a box, and nothing to collide with.
+  body frame). ``changeDynamics`` with a ``localInertiaDiagonal`` alone sets a maximal body's mass to 0 (reported by
+  ``getDynamicsInfo``): Bullet's static body, never moved, or with a collision shape one whose centre of mass gravity
+  throws to -inf at the first step; xcheck gives the mass again in the same call (a test keeps this).
 
 Both paths step semi-implicitly (the velocity first, then the attitude with the new velocity): first order. The
 torque is applied through ``applyExternalTorque`` in world components before each step, which Bullet clears after
@@ -30,7 +31,7 @@ from .. import rotations as rot
 from ..body import principal_axes
 from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
 
-__all__ = ["simulate", "PATHS", "to_bullet", "from_bullet", "DEFAULT_ANGULAR_DAMPING"]
+__all__ = ["simulate", "free_flight", "PATHS", "to_bullet", "from_bullet", "DEFAULT_ANGULAR_DAMPING"]
 
 #: Bullet's two paths for one body.
 PATHS = ("multibody", "maximal")
@@ -73,13 +74,53 @@ def from_bullet(orientation, w_world, V):
     return q, rot.quat_rotate(rot.quat_conj(q), np.asarray(w_world, dtype=float))
 
 
+def _body(p, client, path: str, *, mass: float, moments, orientation, w_world, v0=(0.0, 0.0, 0.0),
+          angular_damping: float = 0.0) -> int:
+    """One body on ``path`` at the origin: its principal moments, orientation (Bullet's), velocities (world), no
+    linear damping, ``angular_damping`` (see the module's docstring)."""
+    if path not in PATHS:
+        raise ValueError(f"path: unknown {path!r}; expected one of {', '.join(PATHS)}")
+    body = p.createMultiBody(baseMass=float(mass), baseCollisionShapeIndex=-1, basePosition=[0, 0, 0],
+                             baseOrientation=list(map(float, orientation)), useMaximalCoordinates=path == "maximal",
+                             physicsClientId=client)
+    # the mass again: changeDynamics with an inertia alone sets a maximal body's mass to 0 (see the docstring)
+    p.changeDynamics(body, -1, mass=float(mass), localInertiaDiagonal=list(map(float, moments)), linearDamping=0.0,
+                     angularDamping=float(angular_damping), physicsClientId=client)
+    p.resetBaseVelocity(body, list(map(float, v0)), list(map(float, w_world)), physicsClientId=client)
+    return body
+
+
+def free_flight(*, path: str, mass: float, moments, omega0, v0, gravity, dt: float, nsteps: int,
+                angular_damping: float = 0.0):
+    """Bullet flying a body whole, translation and gravity included, as the boxes benchmark does
+    (:mod:`xcheck.league`): principal ``moments`` along the body axes, the identity attitude at the origin, ``v0``
+    [m/s] and ``omega0`` [rad/s] (the identity start makes body and world components alike), ``nsteps`` steps of
+    ``dt``. Returns ``(t, c, q, v, omega)`` like :func:`xcheck.engines.mujoco.free_flight` (omega in body
+    components)."""
+    p = _pybullet()
+    client = p.connect(p.DIRECT)
+    try:
+        p.setGravity(*map(float, gravity), physicsClientId=client)
+        p.setPhysicsEngineParameter(fixedTimeStep=float(dt), numSubSteps=0, physicsClientId=client)
+        body = _body(p, client, path, mass=mass, moments=moments, orientation=[0, 0, 0, 1], w_world=omega0, v0=v0,
+                     angular_damping=angular_damping)
+        c, orn, v, w = (np.empty((nsteps + 1, k)) for k in (3, 4, 3, 3))
+        for k in range(nsteps + 1):
+            if k:
+                p.stepSimulation(physicsClientId=client)
+            c[k], orn[k] = p.getBasePositionAndOrientation(body, physicsClientId=client)
+            v[k], w[k] = p.getBaseVelocity(body, physicsClientId=client)
+    finally:
+        p.disconnect(physicsClientId=client)
+    q, omega = from_bullet(orn, w, np.eye(3))
+    return np.arange(nsteps + 1) * float(dt), c, q, v, omega
+
+
 def simulate(inertia, *, path: str, q0, omega0, dt: float, duration: float, torque=None, mass: float = 1.0,
              angular_damping: float = 0.0) -> Trajectory:
     """Run Bullet's ``path`` (:data:`PATHS`) on a body of ``inertia`` (3, 3) [kg m^2] from ``(q0, omega0)`` (ours)
     for ``duration`` s at step ``dt``; ``torque`` None or ``(t, q, omega) -> (3,)`` [N m] in body components, held
     over each step. ``angular_damping``: Bullet's (xcheck's runs: 0; the finding: the multibody's default)."""
-    if path not in PATHS:
-        raise ValueError(f"path: unknown {path!r}; expected one of {', '.join(PATHS)}")
     q0, omega0 = check_initial_state(q0, omega0)
     n, last_h = step_plan(float(dt), float(duration))
     moments, V = principal_axes(np.asarray(inertia, dtype=float))
@@ -87,15 +128,9 @@ def simulate(inertia, *, path: str, q0, omega0, dt: float, duration: float, torq
     client = p.connect(p.DIRECT)
     try:
         p.setGravity(0, 0, 0, physicsClientId=client)
-        shape = (p.createCollisionShape(p.GEOM_BOX, halfExtents=[0.05, 0.05, 0.05], physicsClientId=client)
-                 if path == "maximal" else -1)
         orientation, w_world = to_bullet(q0, omega0, V)
-        body = p.createMultiBody(baseMass=float(mass), baseCollisionShapeIndex=shape, basePosition=[0, 0, 0],
-                                 baseOrientation=orientation.tolist(), useMaximalCoordinates=path == "maximal",
-                                 physicsClientId=client)
-        p.changeDynamics(body, -1, localInertiaDiagonal=moments.tolist(), linearDamping=0.0,
-                         angularDamping=float(angular_damping), physicsClientId=client)
-        p.resetBaseVelocity(body, [0, 0, 0], w_world.tolist(), physicsClientId=client)
+        body = _body(p, client, path, mass=mass, moments=moments, orientation=orientation, w_world=w_world,
+                     angular_damping=angular_damping)
         orn = np.empty((n + 1, 4))
         ang = np.empty((n + 1, 3))
         orn[0], ang[0] = orientation, w_world

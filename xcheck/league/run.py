@@ -62,6 +62,25 @@ def mujoco_rows(case_name: str, integrator: str, steps=B.STEPS) -> list[dict]:
     return _rows(case_name, "mujoco", f"mujoco-{integrator}", steps, fly)
 
 
+def bullet_rows(case_name: str, path: str, steps=B.STEPS) -> list[dict]:
+    """PyBullet's ``path`` on one case at each step, flying the whole body (issue 40: the benchmark's Bullet, live);
+    ``multibody-default`` is the multibody with PyBullet's default angular damping (0.04), as a user's first try
+    meets it."""
+    from ..engines.bullet import DEFAULT_ANGULAR_DAMPING, free_flight
+
+    bullet_path, damping = ("multibody", DEFAULT_ANGULAR_DAMPING) if path == "multibody-default" else (path, 0.0)
+
+    def fly(case, dt, n):
+        t, c, q, v, w = free_flight(path=bullet_path, mass=B.MASS, moments=B.INERTIA, omega0=case.omega0,
+                                    v0=case.v0, gravity=case.gravity, dt=dt, nsteps=n, angular_damping=damping)
+        return t, q, w, c, v
+    return _rows(case_name, "pybullet", f"pybullet-{path}", steps, fly)
+
+
+#: PyBullet's rows in the league: its two paths, and the multibody as PyBullet makes it (its default damping on)
+BULLET_PATHS = ("multibody", "maximal", "multibody-default")
+
+
 def our_rows(case_name: str, method: str, steps=B.STEPS) -> list[dict]:
     """One of our methods on one case at each step (attitude only: no translation errors of its own)."""
     def fly(case, dt, n):
@@ -75,7 +94,11 @@ def our_rows(case_name: str, method: str, steps=B.STEPS) -> list[dict]:
 
 def league_tasks(cases=tuple(B.CASES), steps=B.STEPS) -> list[tuple]:
     """``(function, case, method, steps)`` for every method on every case: MuJoCo's first (its runs are the longest)."""
+    from ..engines import available
+
     return ([(mujoco_rows, c, i, tuple(steps)) for c in cases for i in MUJOCO_INTEGRATORS]
+            + [(bullet_rows, c, path, tuple(steps)) for c in cases for path in BULLET_PATHS
+               if available("pybullet")]
             + [(our_rows, c, m, tuple(steps)) for c in cases for m in OURS])
 
 

@@ -48,7 +48,7 @@ def entries(rows: list[dict], case: str, steps) -> list[dict]:
 
 
 def _who(e) -> str:
-    return {"published": f"{e['name']} (published)", "mujoco": e["name"], "xcheck": f"{e['name']} (ours)"}[e["source"]]
+    return {"published": f"{e['name']} (published)", "xcheck": f"{e['name']} (ours)"}.get(e["source"], e["name"])
 
 
 def table_rows(rows, case: str, steps) -> tuple[list[str], list[list[str]]]:
@@ -105,11 +105,21 @@ def summary(rows) -> str:
             f"({at['mujoco-euler']['momentum_error']:.3g}) sits with ODE and Bullet.")
 
 
+def live_engines_text(live) -> str:
+    """What the live engines' rows are (issue 40), for the docs' table and the report's section."""
+    return ("Live engines (run here, translation and gravity included, as MuJoCo is): " + ", ".join(live) + ". "
+            "pybullet-maximal is Bullet's btRigidBody (its implicit gyroscopic term), pybullet-multibody its "
+            "btMultiBody, both with no damping; pybullet-multibody-default is the multibody as createMultiBody makes "
+            "it, with its angular damping of 0.04. What changed since 2015: today's Bullet lands on the published "
+            "Bullet figures through its maximal path and on ODE's through its multibody: the published \"Bullet\" "
+            "and \"ODE\" are these two first-order schemes.")
+
+
 def markdown(rows, steps, *, version: str, versions: dict, command: str) -> str:
     """``docs/league.md``: both cases' tables, every step's figures in an appendix, the source, what was matched."""
     now = datetime.now(timezone.utc).strftime("%Y-%m-%d")
     lines = [
-        "# The league table: MuJoCo and xcheck on the boxes benchmark",
+        "# The league table: MuJoCo, the engines installed here and xcheck on the boxes benchmark",
         "",
         f"Made by `{command}` on {now} with xcheck {version} "
         f"({', '.join(f'{k} {v}' for k, v in versions.items())}); do not edit by hand.",
@@ -135,6 +145,9 @@ def markdown(rows, steps, *, version: str, versions: dict, command: str) -> str:
                   "|" + "|".join("---" if k < 2 else "---:" for k in range(len(head))) + "|"]
         lines += ["| " + " | ".join(r) + " |" for r in body]
         lines.append("")
+    live = sorted({r["method"] for r in rows if r["engine"] not in ("mujoco", "xcheck")})
+    if live:  # issue 40: the engines people choose, run here beside the published figures
+        lines += [live_engines_text(live), ""]
     text = summary(rows)
     if text:
         lines += ["## In words", "", text, "",
@@ -170,8 +183,8 @@ def draw(rows, steps) -> tuple[str, str, bytes]:
         rs = e["rows"]
         if e["source"] == "xcheck" and e["name"] != "lie-rkmk4":
             continue  # ours lie on one line at round-off: one stands for them
-        style = {"published": ":", "mujoco": "--", "xcheck": "-"}[e["source"]]
-        marker = {"published": "s", "mujoco": "o", "xcheck": "^"}[e["source"]]
+        style = {"published": ":", "mujoco": "--", "xcheck": "-"}.get(e["source"], "-.")  # live engines: dash-dot
+        marker = {"published": "s", "mujoco": "o", "xcheck": "^"}.get(e["source"], "d")
         for ax, key in zip(axes, ("momentum_error", "energy_error")):
             dts = [r["dt"] for r in rs]
             ys = [max(r[key], 1e-17) for r in rs]
@@ -186,7 +199,8 @@ def draw(rows, steps) -> tuple[str, str, bytes]:
     axes[1].legend(fontsize=8, loc="center left", bbox_to_anchor=(1.02, 0.5))
     caption = ("The boxes benchmark's complex case (a box tumbling near its intermediate axis, 10 s): the largest "
                "relative angular momentum and energy errors against the step, the published engines (dotted) beside "
-               "MuJoCo's integrators (dashed) and ours (solid, one line for all: they agree to round-off)")
+               "MuJoCo's integrators (dashed), the engines installed here (dash-dot, live) and ours (solid, one line "
+               "for all: they agree to round-off)")
     return png_of(fig, FIGURE, caption)
 
 
@@ -205,6 +219,9 @@ def section(rows, steps):
                    "Errors are relative and dimensionless, as theirs: the largest ‖ΔH‖/‖H₀‖ and ‖ΔE‖/E₀ over 10 s. "
                    f"At {', '.join(f'{s:g}' for s in sorted(steps))} s here; every step from 1e-4 to 1e-3 s: "
                    "`xcheck league` (docs/league.md).")]
+    live = sorted({r["method"] for r in rows if r["engine"] not in ("mujoco", "xcheck")})
+    if live:  # issue 40: the engines people choose, run live beside the published figures
+        blocks.append(Para(live_engines_text(live)))
     text = summary(rows)
     if text:
         blocks.append(Para(text))
