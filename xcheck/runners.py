@@ -294,6 +294,30 @@ if available("pybullet"):
                     for name, summary in BULLET_METHODS.items()})
 
 
+def _drake(integrator):
+    def run(ctx: RunContext, dt: float) -> Trajectory:
+        from .engines.drake import simulate
+
+        return simulate(ctx.inertia, integrator=integrator, q0=ctx.q0, omega0=ctx.omega0, dt=dt,
+                        duration=ctx.duration, torque=ctx.torque)
+    return run
+
+
+#: Drake's methods (issue 40): the integrators of its Simulator in fixed-step mode on a continuous MultibodyPlant,
+#: registered when ``drake`` is installed (the extra ``engines``); the torque at every stage. Opt-in for now
+#: (``xcheck report --with drake``, ``$XCHECK_WITH``): see :data:`xcheck.engines.ENGINES`.
+DRAKE_METHODS = {
+    "drake-explicit-euler": (1, "Drake's explicit Euler (Simulator, fixed step) on a continuous MultibodyPlant"),
+    "drake-semi-explicit-euler": (1, "Drake's semi-explicit (symplectic) Euler on a continuous MultibodyPlant"),
+    "drake-rk2": (2, "Drake's second-order Runge-Kutta on a continuous MultibodyPlant"),
+    "drake-rk3": (3, "Drake's third-order Runge-Kutta on a continuous MultibodyPlant"),
+}
+if available("drake"):
+    RUNNERS.update({name: Runner(name, "drake", order, summary, _drake(name.removeprefix("drake-")), line_style=":",
+                                 cannot=_free_bodies_only("Drake"), opt_in=True)
+                    for name, (order, summary) in DRAKE_METHODS.items()})
+
+
 def unknown_method(name: str) -> str:
     """The message for a method name that is not a runner: an engine's that is not installed says how to get it."""
     if name in BASILISK_METHODS:
@@ -302,6 +326,8 @@ def unknown_method(name: str) -> str:
                     "leaves out here")
         return (f"{name!r} is Basilisk's, which is not installed here: pip install 'xcheck[basilisk]' (the PyPI "
                 "package bsk)")
+    if name in DRAKE_METHODS:
+        return f"{name!r} is Drake's, which is not installed here: pip install 'xcheck[engines]' (PyPI drake)"
     if name in BULLET_METHODS:
         return f"{name!r} is PyBullet's, which is not installed here: pip install 'xcheck[engines]' (PyPI pybullet)"
     if name in MJX_METHODS:

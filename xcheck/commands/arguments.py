@@ -89,7 +89,7 @@ def _opt_in(names, what: str) -> None:
             raise UsageError(f"{what}: {name!r} is not an opt-in engine (expected some of {', '.join(opt_in)}); the "
                              "others run whenever they are installed")
         if not available(name):
-            raise UsageError(f"{what}: {name} is not installed here: pip install 'xcheck[{name}]'")
+            raise UsageError(f"{what}: {name} is not installed here: pip install 'xcheck[{ENGINES[name].extra or name}]'")
 
 
 def engine_variables() -> None:

@@ -29,6 +29,8 @@ class Engine:
     #: command's ``methods``): MJX compiles each model, integrator and precision (1-3 s each), which would double
     #: every report where it is merely installed
     opt_in: bool = False
+    #: the extra of ``pyproject.toml`` that installs it (default: the engine's name)
+    extra: str = ""
 
 
 ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco", "mujoco", warm=("xcheck.engines.mujoco",),
@@ -38,7 +40,11 @@ ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco", "mujoco
                               warm=("xcheck.engines.basilisk", "Basilisk.simulation.spacecraft"), to_workers=True),
            "mjx": Engine("mjx", "mujoco-mjx", "xcheck.engines.mjx", "jax", opt_in=True),
            "pybullet": Engine("pybullet", "pybullet", "xcheck.engines.bullet", "pybullet",
-                              warm=("xcheck.engines.bullet",))}
+                              warm=("xcheck.engines.bullet",), extra="engines"),
+           # opt-in while its first-order integrators' verdicts are read (docs/findings.md: explicit Euler
+           # pre-asymptotic on a fast spin, semi-explicit Euler of order 2 on the gyroscope)
+           "drake": Engine("drake", "drake", "xcheck.engines.drake", "pydrake", warm=("xcheck.engines.drake",),
+                           opt_in=True, extra="engines")}
 
 
 #: An optional engine is left out, although installed, when ``$XCHECK_WITHOUT`` names it (comma-separated):
