@@ -124,7 +124,7 @@ def test_xcheck_league_writes_the_table_and_its_figure(tmp_path, monkeypatch, ca
     from xcheck.engines import available
     from xcheck.league.run import BULLET_PATHS
 
-    live = len(BULLET_PATHS) if available("pybullet") else 0  # PyBullet's live rows where it is installed
+    live = (len(BULLET_PATHS) if available("pybullet") else 0) + available("dart")  # live engines' rows
     assert doc["schema"] == "xcheck.league/1" and len(doc["rows"]) == 2 * 2 * (4 + 9 + live)
 
 

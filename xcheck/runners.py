@@ -294,6 +294,22 @@ if available("pybullet"):
                     for name, summary in BULLET_METHODS.items()})
 
 
+def _dart(ctx: RunContext, dt: float) -> Trajectory:
+    from .engines.dart import simulate
+
+    return simulate(ctx.inertia, q0=ctx.q0, omega0=ctx.omega0, dt=dt, duration=ctx.duration, torque=ctx.torque)
+
+
+#: DART's method (issue 40): its World's own integrator, registered when ``dartpy`` is installed (the extra
+#: ``engines``); the torque held over each step. Opt-in for now (``--with dart``): see :data:`xcheck.engines.ENGINES`.
+DART_METHODS = {"dart-semi-implicit-euler": "DART's World on a FreeJoint: semi-implicit Euler, the torque held over "
+                                            "each step"}
+if available("dart"):
+    RUNNERS.update({name: Runner(name, "dart", 1, summary, _dart, line_style="--", cannot=_free_bodies_only("DART"),
+                                 opt_in=True)
+                    for name, summary in DART_METHODS.items()})
+
+
 def _drake(integrator):
     def run(ctx: RunContext, dt: float) -> Trajectory:
         from .engines.drake import simulate
@@ -326,6 +342,8 @@ def unknown_method(name: str) -> str:
                     "leaves out here")
         return (f"{name!r} is Basilisk's, which is not installed here: pip install 'xcheck[basilisk]' (the PyPI "
                 "package bsk)")
+    if name in DART_METHODS:
+        return f"{name!r} is DART's, which is not installed here: pip install 'xcheck[engines]' (PyPI dartpy)"
     if name in DRAKE_METHODS:
         return f"{name!r} is Drake's, which is not installed here: pip install 'xcheck[engines]' (PyPI drake)"
     if name in BULLET_METHODS:

@@ -41,8 +41,11 @@ ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco", "mujoco
            "mjx": Engine("mjx", "mujoco-mjx", "xcheck.engines.mjx", "jax", opt_in=True),
            "pybullet": Engine("pybullet", "pybullet", "xcheck.engines.bullet", "pybullet",
                               warm=("xcheck.engines.bullet",), extra="engines"),
-           # opt-in while its first-order integrators' verdicts are read (docs/findings.md: explicit Euler
-           # pre-asymptotic on a fast spin, semi-explicit Euler of order 2 on the gyroscope)
+           # DART and Drake opt-in while verdicts of their first-order steps are read (docs/findings.md): DART's
+           # truncated exponential below 1e-3 rad a step, Drake's explicit Euler pre-asymptotic on a fast spin and
+           # its semi-explicit Euler of order 2 on the gyroscope
+           "dart": Engine("dart", "dartpy", "xcheck.engines.dart", "dartpy", warm=("xcheck.engines.dart",),
+                          opt_in=True, extra="engines"),
            "drake": Engine("drake", "drake", "xcheck.engines.drake", "pydrake", warm=("xcheck.engines.drake",),
                            opt_in=True, extra="engines")}
 

@@ -77,6 +77,17 @@ def bullet_rows(case_name: str, path: str, steps=B.STEPS) -> list[dict]:
     return _rows(case_name, "pybullet", f"pybullet-{path}", steps, fly)
 
 
+def dart_rows(case_name: str, steps=B.STEPS) -> list[dict]:
+    """DART on one case at each step, flying the whole body (issue 40: the benchmark's DART, live)."""
+    from ..engines.dart import free_flight
+
+    def fly(case, dt, n):
+        t, c, q, v, w = free_flight(mass=B.MASS, moments=B.INERTIA, omega0=case.omega0, v0=case.v0,
+                                    gravity=case.gravity, dt=dt, nsteps=n)
+        return t, q, w, c, v
+    return _rows(case_name, "dart", "dart-semi-implicit-euler", steps, fly)
+
+
 #: PyBullet's rows in the league: its two paths, and the multibody as PyBullet makes it (its default damping on)
 BULLET_PATHS = ("multibody", "maximal", "multibody-default")
 
@@ -99,6 +110,7 @@ def league_tasks(cases=tuple(B.CASES), steps=B.STEPS) -> list[tuple]:
     return ([(mujoco_rows, c, i, tuple(steps)) for c in cases for i in MUJOCO_INTEGRATORS]
             + [(bullet_rows, c, path, tuple(steps)) for c in cases for path in BULLET_PATHS
                if available("pybullet")]
+            + [(dart_rows, c, tuple(steps)) for c in cases if available("dart")]
             + [(our_rows, c, m, tuple(steps)) for c in cases for m in OURS])
 
 

@@ -1,0 +1,113 @@
+"""DART (PyPI ``dartpy``) as an engine (issue 40): one body on a ``FreeJoint`` in a ``World`` with no gravity, stepped
+by DART's own integrator, semi-implicit Euler (the velocity first, then the positions with the new velocity: order 1).
+
+Conventions at this boundary (tested both ways, and against DART's own reading of the body): the joint's positions
+are ``FreeJoint.convertToPositions`` of the body's transform, whose rotation is our ``R`` (body -> world); its
+velocities, as ``dartpy`` 6.20 reads them, are the angular velocity in world components then the linear one: the
+rate enters as ``R w``, and is read back as ``getAngularVelocity(World, body)``, body components. The inertia is the
+body-frame tensor, products included (``Inertia``).
+
+The torque is set with ``setExtTorque`` in world components before each step, which DART clears after it: evaluated
+at the step's start and held over it (first order, as the step itself).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from .. import rotations as rot
+from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
+
+__all__ = ["simulate", "free_flight", "to_dart", "from_dart"]
+
+
+@functools.lru_cache(maxsize=1)
+def _dart():
+    import dartpy
+
+    return dartpy
+
+
+def to_dart(q, omega) -> tuple[np.ndarray, np.ndarray]:
+    """Our ``(q, omega)`` -> ``(R, the joint's velocities' angular part: R w, world components)``."""
+    R = rot.quat_to_dcm(q)
+    return R, R @ np.asarray(omega, dtype=float)
+
+
+def from_dart(R, omega_body) -> tuple[np.ndarray, np.ndarray]:
+    """DART's body rotation ``R`` (body -> world) and body-frame rate -> our ``(q, omega)``."""
+    return rot.dcm_to_quat(np.asarray(R, dtype=float)), np.asarray(omega_body, dtype=float)
+
+
+def _world(dart, dt: float, gravity, inertia, mass: float = 1.0):
+    """A World with one body on a FreeJoint: ``(world, skeleton, body)``."""
+    world = dart.simulation.World()
+    world.setGravity(np.asarray(gravity, dtype=float))
+    world.setTimeStep(float(dt))
+    skeleton = dart.dynamics.Skeleton("xcheck-body")
+    _, body = skeleton.createFreeJointAndBodyNodePair(None, dart.dynamics.FreeJointProperties())
+    body.setInertia(dart.dynamics.Inertia(float(mass), np.zeros(3), np.asarray(inertia, dtype=float)))
+    world.addSkeleton(skeleton)
+    return world, skeleton, body
+
+
+def free_flight(*, mass: float, moments, omega0, v0, gravity, dt: float, nsteps: int):
+    """DART flying a body whole, translation and gravity included, as the boxes benchmark does
+    (:mod:`xcheck.league`): principal ``moments`` along the body axes, the identity attitude at the origin, ``v0``
+    and ``omega0`` (world and body components alike at the identity), ``nsteps`` steps of ``dt``. Returns
+    ``(t, c, q, v, omega)`` like :func:`xcheck.engines.mujoco.free_flight`."""
+    dart = _dart()
+    world, skeleton, body = _world(dart, dt, gravity, np.diag(np.asarray(moments, dtype=float)), mass)
+    skeleton.setVelocities(np.concatenate([np.asarray(omega0, dtype=float), np.asarray(v0, dtype=float)]))
+    frame = dart.dynamics.Frame.World()
+    c, Rs, v, w = np.empty((nsteps + 1, 3)), np.empty((nsteps + 1, 3, 3)), np.empty((nsteps + 1, 3)), \
+        np.empty((nsteps + 1, 3))
+    for k in range(nsteps + 1):
+        if k:
+            world.step()
+        pose = body.getWorldTransform()
+        c[k], Rs[k] = pose.translation(), pose.rotation()
+        v[k], w[k] = body.getLinearVelocity(frame, frame), body.getAngularVelocity(frame, body)
+    q, omega = from_dart(Rs, w)
+    return np.arange(nsteps + 1) * float(dt), c, q, v, omega
+
+
+def simulate(inertia, *, q0, omega0, dt: float, duration: float, torque=None) -> Trajectory:
+    """Run DART's semi-implicit Euler at step ``dt`` on a free body of ``inertia`` (3, 3) [kg m^2] from
+    ``(q0, omega0)`` (ours) for ``duration`` s; ``torque`` None or ``(t, q, omega) -> (3,)`` [N m] in body
+    components, held over each step."""
+    q0, omega0 = check_initial_state(q0, omega0)
+    n, last_h = step_plan(float(dt), float(duration))
+    dart = _dart()
+    world, skeleton, body = _world(dart, dt, np.zeros(3), inertia)
+    R0, w_world = to_dart(q0, omega0)
+    pose = dart.math.Isometry3()
+    pose.set_rotation(R0)
+    skeleton.setPositions(dart.dynamics.FreeJoint.convertToPositions(pose))
+    skeleton.setVelocities(np.concatenate([w_world, np.zeros(3)]))
+    world_frame = dart.dynamics.Frame.World()
+    Rs = np.empty((n + 1, 3, 3))
+    ws = np.empty((n + 1, 3))
+    Rs[0], ws[0] = body.getWorldTransform().rotation(), body.getAngularVelocity(world_frame, body)
+    t = np.arange(n + 1) * float(dt)
+    t[-1] = float(duration)
+    for k in range(n):
+        if k == n - 1 and last_h != dt:
+            world.setTimeStep(last_h)
+        if torque is not None:
+            q_k, w_k = from_dart(Rs[k], ws[k])
+            body.setExtTorque(Rs[k] @ np.asarray(torque(t[k], q_k, w_k), dtype=float), False)
+        world.step()
+        Rs[k + 1], ws[k + 1] = body.getWorldTransform().rotation(), body.getAngularVelocity(world_frame, body)
+    q, omega = from_dart(Rs, ws)
+    method = "dart-semi-implicit-euler"
+    bad = ~(np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(omega), axis=1))
+    k = int(np.argmax(bad)) if bad.any() else len(t)
+    traj = Trajectory(t=t[:k], q=continuous_quaternions(q[:k]) if k else np.empty((0, 4)), omega=omega[:k],
+                      method=method, dt=float(dt),
+                      extras={"evaluations": n, "torque_input": "held over each step" if torque is not None else None})
+    if k < len(t):
+        traj.status, traj.message = "failed", f"{method}: the state became non-finite at t = {t[k]:.6g} s"
+    return traj
