@@ -86,7 +86,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also write every method's finest run as CSV (trajectories/, ~4 MB a scenario)")
     p.add_argument("--with", dest="with_engines", metavar="ENGINE",
                    help="opt-in engines' methods too, comma-separated: mjx (MJX's RK4, Euler and implicitfast, "
-                        "float32 and x64; pip install 'xcheck[mjx]'), dart, drake (pip install 'xcheck[engines]')")
+                        "float32 and x64; pip install 'xcheck[mjx]'), pybullet, dart, drake (pip install "
+                        "'xcheck[engines]')")
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
 
     p = sub.add_parser("nightly", help="the full report, compared with the history and recorded in it")
@@ -179,7 +180,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--repeat", type=int, default=3, help="best of this many runs (default 3)")
     p.add_argument("--with", dest="with_engines", metavar="ENGINE",
                    help="opt-in engines' methods too, comma-separated: mjx (MJX's RK4, Euler and implicitfast, "
-                        "float32 and x64; pip install 'xcheck[mjx]'), dart, drake (pip install 'xcheck[engines]')")
+                        "float32 and x64; pip install 'xcheck[mjx]'), pybullet, dart, drake (pip install "
+                        "'xcheck[engines]')")
     return parser
 
 

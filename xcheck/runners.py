@@ -281,7 +281,8 @@ def _bullet(path):
 
 
 #: PyBullet's methods (issue 40): Bullet's two paths for one body, registered when ``pybullet`` is installed (the
-#: extra ``engines``). Both step semi-implicitly and hold the torque over the step: first order.
+#: extra ``engines``). Both step semi-implicitly and hold the torque over the step: first order. Opt-in for now
+#: (``--with pybullet``): see :data:`xcheck.engines.ENGINES`.
 BULLET_METHODS = {
     "pybullet-multibody": "Bullet's btMultiBody (PyBullet's createMultiBody; its default angular damping 0.04 set "
                           "to 0), semi-implicit Euler, the torque held over each step",
@@ -290,7 +291,7 @@ BULLET_METHODS = {
 }
 if available("pybullet"):
     RUNNERS.update({name: Runner(name, "pybullet", 1, summary, _bullet(name.removeprefix("pybullet-")),
-                                 line_style="-.", cannot=_free_bodies_only("PyBullet"))
+                                 line_style="-.", cannot=_free_bodies_only("PyBullet"), opt_in=True)
                     for name, summary in BULLET_METHODS.items()})
 
 
