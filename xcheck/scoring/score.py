@@ -20,7 +20,7 @@ from .reader import TrajectoryFileError, read_samples
 __all__ = ["FileScore", "score_file", "growth_exponent", "PLOT_POINTS"]
 
 #: Points of a file's error series kept for the figures (spread evenly in log time).
-PLOT_POINTS = 400
+PLOT_POINTS = 200
 
 
 @dataclass
@@ -86,7 +86,7 @@ class FileScore:
         for key in ("source", "findings", "best_reading", "notes"):
             if getattr(self, key):
                 out[key] = getattr(self, key)
-        out["series"] = {k: [None if not np.isfinite(v) else float(f"{v:.6g}") for v in np.asarray(x, dtype=float)]
+        out["series"] = {k: [None if not np.isfinite(v) else float(f"{v:.4g}") for v in np.asarray(x, dtype=float)]
                          for k, x in self.series.items()}  # for the figure: about PLOT_POINTS points in log time
         return out
 
