@@ -166,15 +166,25 @@ def _basilisk_input_order(torque: dict | None, model=None):
                    "over the step: first order")
 
 
-def _joint_kinds(model) -> set:
-    """The kinds of joint an MJCF declares besides the free joint (``ball``, ``hinge``: a top's pivot, a gyrostat's
-    wheels), read as text like :func:`_declares_pulses` (planning a study imports no MuJoCo)."""
+def _model_text(model) -> str | None:
+    """An MJCF's text without its comments, read so that planning a study (the pytest plugin's collection) imports no
+    MuJoCo; None when it cannot be read (said where the model is loaded for the run)."""
     import re
     from pathlib import Path
 
     try:
-        text = re.sub(r"<!--.*?-->", "", Path(model).read_text(encoding="utf-8", errors="replace"), flags=re.S)
+        return re.sub(r"<!--.*?-->", "", Path(model).read_text(encoding="utf-8", errors="replace"), flags=re.S)
     except OSError:
+        return None
+
+
+def _joint_kinds(model) -> set:
+    """The kinds of joint an MJCF declares besides the free joint (``ball``, ``hinge``: a top's pivot, a gyrostat's
+    wheels), read from its text (:func:`_model_text`)."""
+    import re
+
+    text = _model_text(model)
+    if text is None:
         return set()
     kinds = set()
     for tag in re.findall(r"<joint\b[^>]*>", text):
@@ -197,15 +207,12 @@ def _free_bodies_only(engine: str):
 
 
 def _declares_pulses(model) -> bool:
-    """Whether an MJCF declares a motor's pulse (``<numeric name="xcheck_pulse:...">``, outside comments): read as
-    text, so that planning a study (the pytest plugin's collection) imports no MuJoCo; the model's loading checks
-    that each names a wheel's motor."""
+    """Whether an MJCF declares a motor's pulse (``<numeric name="xcheck_pulse:...">``, outside comments), read from its
+    text (:func:`_model_text`); the model's loading checks that each names a wheel's motor."""
     import re
-    from pathlib import Path
 
-    try:
-        text = re.sub(r"<!--.*?-->", "", Path(model).read_text(encoding="utf-8", errors="replace"), flags=re.S)
-    except OSError:  # said where the model is loaded for the run
+    text = _model_text(model)
+    if text is None:
         return False
     return re.search(r"<numeric\s[^>]*name\s*=\s*[\"']xcheck_pulse:", text) is not None
 

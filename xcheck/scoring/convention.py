@@ -218,14 +218,18 @@ UNIT_TOLERANCE = 1e-6
 
 
 def to_world(conv: Convention, t, A, W, *, earth: Earth | None, where: str = "", check: bool = True,
-             row0: int = 2) -> Converted:
+             lines=None) -> Converted:
     """Samples of a file (times ``t``, attitude columns ``A`` in ``conv``'s order, rate columns ``W`` or None) in
     xcheck's convention. ``check``: a quaternion or matrix off the unit sphere by more than :data:`UNIT_TOLERANCE`
-    is refused (a ValueError naming ``where``, the row, counted as the file's lines from ``row0``, and by how much)
+    is refused (a ValueError naming ``where``, the row as the file's line ``lines[k]`` when given, and by how much)
     unless ``conv.normalise``; the detective converts with ``check=False``."""
     t = np.asarray(t, dtype=float) * (1e-3 if conv.time_unit == "ms" else 1.0)
     A = np.asarray(A, dtype=float)
     notes = []
+
+    def row(k: int) -> str:
+        return f"line {lines[k]}" if lines is not None else f"row {k}"
+
     if conv.attitude == "quaternion":
         q = A if conv.scalar == "first" else A[:, [3, 0, 1, 2]]
         norm = np.linalg.norm(q, axis=1)
@@ -233,10 +237,10 @@ def to_world(conv: Convention, t, A, W, *, earth: Earth | None, where: str = "",
         k = int(np.argmax(off)) if len(off) else 0
         if check and len(off) and off[k] > UNIT_TOLERANCE:
             if not conv.normalise:
-                raise ValueError(f"{where}, row {row0 + k}: the quaternion {A[k].tolist()} has norm {norm[k]:.9g} "
+                raise ValueError(f"{where}, {row(k)}: the quaternion {A[k].tolist()} has norm {norm[k]:.9g} "
                                  f"(off unit by {off[k]:.2g}, beyond {UNIT_TOLERANCE:g}): is it a quaternion? Declare "
                                  "normalise = true to have it normalised")
-            notes.append(f"quaternions normalised (their norms were off unit by up to {off[k]:.2g}, row {row0 + k})")
+            notes.append(f"quaternions normalised (their norms were off unit by up to {off[k]:.2g}, {row(k)})")
         q = q / norm[:, None]
     elif conv.attitude == "dcm":
         R = A.reshape(-1, 3, 3)
@@ -244,9 +248,9 @@ def to_world(conv: Convention, t, A, W, *, earth: Earth | None, where: str = "",
         k = int(np.argmax(gram)) if len(gram) else 0
         if check and len(gram) and gram[k] > UNIT_TOLERANCE:
             if not conv.normalise:
-                raise ValueError(f"{where}, row {row0 + k}: the matrix is not a rotation (|R^T R - I| = {gram[k]:.2g}, "
+                raise ValueError(f"{where}, {row(k)}: the matrix is not a rotation (|R^T R - I| = {gram[k]:.2g}, "
                                  f"beyond {UNIT_TOLERANCE:g}): declare normalise = true to have it orthonormalised")
-            notes.append(f"matrices orthonormalised (|R^T R - I| up to {gram[k]:.2g}, row {row0 + k})")
+            notes.append(f"matrices orthonormalised (|R^T R - I| up to {gram[k]:.2g}, {row(k)})")
         if conv.normalise or not check:
             u, _, vt = np.linalg.svd(R)
             R = u @ vt

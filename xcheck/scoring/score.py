@@ -5,7 +5,6 @@ torque-free body computed from its samples, a verdict by its tolerance, and the 
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -120,9 +119,9 @@ def score_file(conv: Convention, reference, *, inertia, duration: float, earth: 
     samples = read_samples(conv, duration=duration)
     try:
         world = to_world(conv, samples.t, samples.attitude, samples.rates, earth=earth, where=str(conv.file),
-                         row0=0)
-    except ValueError as exc:  # a quaternion or matrix off the unit sphere: the message names row k (0-based here)
-        raise TrajectoryFileError(_with_line(str(exc), samples.lines)) from None
+                         lines=samples.lines)
+    except ValueError as exc:  # a quaternion or matrix off the unit sphere, named by its line
+        raise TrajectoryFileError(str(exc)) from None
     notes = [*world.notes, *_euler_notes(conv, samples)]
     q_ref, w_ref, mask = reference(world.t)
     if not mask.all():
@@ -175,15 +174,6 @@ def _investigate(score: FileScore, conv, samples, reference, earth, tol, rate_to
     attitude = [f for f in findings if f.judged == "attitude"]
     if not explained and attitude:
         score.best_reading = attitude[0].to_json()
-
-
-def _with_line(message: str, lines) -> str:
-    """``row k`` (0-based) in a conversion's message as the file's line."""
-    m = re.search(r", row (\d+):", message)
-    if not m:
-        return message
-    k = int(m.group(1))
-    return message.replace(m.group(0), f", line {lines[k]}:")
 
 
 def _euler_notes(conv: Convention, samples) -> list:

@@ -109,20 +109,27 @@ class StudyResult:
 
 
 def default_methods(scenario: Scenario) -> list[str]:
-    """The scenario's methods, else every runner but an opt-in engine's that ``$XCHECK_WITH`` does not name."""
-    from ..engines import asked_for
-
+    """The scenario's methods, else every runner but an opt-in engine's that ``$XCHECK_WITH`` does not name, and one
+    that cannot represent the scenario's body (:func:`not_run`)."""
     if scenario.methods:
         return list(scenario.methods)
-    return [m for m, r in RUNNERS.items() if (not r.opt_in or asked_for(r.engine)) and not r.cannot_run(scenario.model)]
+    left_out = not_run(scenario)
+    return [m for m, r in RUNNERS.items() if _offered(r) and m not in left_out]
+
+
+def _offered(runner) -> bool:
+    """Whether a study offers ``runner`` at all: not an opt-in engine's, unless ``$XCHECK_WITH`` names it."""
+    from ..engines import asked_for
+
+    return not runner.opt_in or asked_for(runner.engine)
 
 
 def not_run(scenario: Scenario) -> dict:
     """The methods a study of ``scenario`` leaves out because they cannot represent its body, and why (the report
-    says so: never a silent gap)."""
+    says so: never a silent gap); none when the scenario names its methods (run_study refuses one that cannot run)."""
     if scenario.methods:
         return {}
-    return {m: why for m, r in RUNNERS.items() if (not r.opt_in) for why in [r.cannot_run(scenario.model)] if why}
+    return {m: why for m, r in RUNNERS.items() for why in [r.cannot_run(scenario.model)] if why}
 
 
 def comparison_partner(scenario: Scenario, method: str, methods) -> str | None:
@@ -291,7 +298,7 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
     return StudyResult(scenario=scenario, steps=list(steps), methods=methods, checks=checks, order_floor=floor,
                        quick=quick, series=series, comparisons=comparisons, reference_check=reference_check,
                        inconclusive=reasons, not_run={m: why for m, why in not_run(scenario).items()
-                                                      if m not in methods})
+                                                      if m not in methods and _offered(RUNNERS[m])})
 
 
 def _steady_hint(scenario: Scenario) -> str:
