@@ -30,6 +30,7 @@ import numpy as np
 from .. import rotations as rot
 from ..body import principal_axes
 from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
+from .held_input import engine_torque
 
 __all__ = ["simulate", "free_flight", "PATHS", "to_bullet", "from_bullet", "DEFAULT_ANGULAR_DAMPING"]
 
@@ -137,14 +138,15 @@ def simulate(inertia, *, path: str, q0, omega0, dt: float, duration: float, torq
         t = np.arange(n + 1) * float(dt)
         t[-1] = float(duration)
         p.setPhysicsEngineParameter(fixedTimeStep=float(dt), numSubSteps=0, physicsClientId=client)
+        if torque is not None:
+            world_torque = engine_torque(torque, form="xyzw", right=rot.quat_conj(rot.dcm_to_quat(V)), rates="world")
         for k in range(n):
             h = float(dt) if k < n - 1 else last_h
             if k == n - 1 and h != dt:
                 p.setPhysicsEngineParameter(fixedTimeStep=h, physicsClientId=client)
             if torque is not None:
-                q_k, w_k = from_bullet(orn[k], ang[k], V)
-                tau_world = rot.quat_rotate(q_k, np.asarray(torque(t[k], q_k, w_k), dtype=float))
-                p.applyExternalTorque(body, -1, tau_world.tolist(), p.WORLD_FRAME, physicsClientId=client)
+                p.applyExternalTorque(body, -1, world_torque(t[k], orn[k], ang[k]).tolist(), p.WORLD_FRAME,
+                                      physicsClientId=client)
             p.stepSimulation(physicsClientId=client)
             orn[k + 1] = p.getBasePositionAndOrientation(body, physicsClientId=client)[1]
             ang[k + 1] = p.getBaseVelocity(body, physicsClientId=client)[1]

@@ -19,6 +19,7 @@ import numpy as np
 
 from .. import rotations as rot
 from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
+from .held_input import engine_torque
 
 __all__ = ["simulate", "free_flight", "to_dart", "from_dart"]
 
@@ -93,12 +94,12 @@ def simulate(inertia, *, q0, omega0, dt: float, duration: float, torque=None) ->
     Rs[0], ws[0] = body.getWorldTransform().rotation(), body.getAngularVelocity(world_frame, body)
     t = np.arange(n + 1) * float(dt)
     t[-1] = float(duration)
+    world_torque = None if torque is None else engine_torque(torque, form="dcm", rates="body")
     for k in range(n):
         if k == n - 1 and last_h != dt:
             world.setTimeStep(last_h)
-        if torque is not None:
-            q_k, w_k = from_dart(Rs[k], ws[k])
-            body.setExtTorque(Rs[k] @ np.asarray(torque(t[k], q_k, w_k), dtype=float), False)
+        if world_torque is not None:
+            body.setExtTorque(world_torque(t[k], Rs[k], ws[k]), False)
         world.step()
         Rs[k + 1], ws[k + 1] = body.getWorldTransform().rotation(), body.getAngularVelocity(world_frame, body)
     q, omega = from_dart(Rs, ws)

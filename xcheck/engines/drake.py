@@ -23,6 +23,7 @@ import numpy as np
 
 from .. import rotations as rot
 from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
+from .held_input import engine_torque
 
 __all__ = ["simulate", "INTEGRATORS", "to_drake", "from_drake"]
 
@@ -68,6 +69,8 @@ def _torque_system(d, body_index, torque):
     """A LeafSystem whose output is ``torque(t, q, omega)`` (body components) on the body, as Drake's applied
     spatial forces, from the plant's state at each evaluation (every stage)."""
 
+    world_torque = engine_torque(torque, form="wxyz", rates="world")
+
     class Torque(d.LeafSystem):
         def __init__(self):
             super().__init__()
@@ -77,8 +80,7 @@ def _torque_system(d, body_index, torque):
 
         def _calc(self, context, output):
             x = self.get_input_port(0).Eval(context)
-            q, w = from_drake(np.concatenate([x[0:4], x[7:10]]))
-            tau = rot.quat_rotate(q, np.asarray(torque(context.get_time(), q, w), dtype=float))
+            tau = world_torque(context.get_time(), x[0:4], x[7:10])
             force = d.ExternallyAppliedSpatialForce()
             force.body_index = body_index
             force.p_BoBq_B = np.zeros(3)
