@@ -822,7 +822,7 @@ def test_check_step_counts_steps():
 
 
 @pytest.mark.parametrize("variable, value, said", [
-    ("XCHECK_WITH", "garbage", "$XCHECK_WITH='garbage': 'garbage' is not an opt-in engine (expected some of mjx, pybullet, dart, drake)"),
+    ("XCHECK_WITH", "garbage", "$XCHECK_WITH='garbage': 'garbage' is not an opt-in engine (expected some of mjx)"),
     ("XCHECK_WITHOUT", "bsk", "$XCHECK_WITHOUT='bsk': 'bsk' is not an optional engine (expected some of basilisk"),
     ("XCHECK_WITHOUT", "mujoco", "$XCHECK_WITHOUT='mujoco': 'mujoco' is not an optional engine"),
 ])

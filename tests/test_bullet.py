@@ -14,7 +14,8 @@ if not __import__("xcheck.engines", fromlist=["available"]).available("pybullet"
 
 from xcheck import rotations as rot  # noqa: E402
 from xcheck.body import principal_axes  # noqa: E402
-from xcheck.engines.bullet import DEFAULT_ANGULAR_DAMPING, _pybullet, from_bullet, simulate, to_bullet  # noqa: E402
+from xcheck.engines.bullet import (  # noqa: E402
+    DEFAULT_ANGULAR_DAMPING, _pybullet, clamped_turn, from_bullet, simulate, to_bullet)
 from xcheck.metrics import observed_order, world_momentum  # noqa: E402
 from xcheck.reference import exact_torque_free  # noqa: E402
 from xcheck.runners import RUNNERS  # noqa: E402
@@ -156,3 +157,23 @@ def test_the_league_has_bullets_live_rows_on_the_published_figures():
     assert rows["pybullet-multibody"]["energy_error"] == pytest.approx(0.0125, abs=5e-5)
     assert rows["pybullet-multibody-default"]["momentum_error"] == pytest.approx(0.756, abs=0.01)
     assert all(np.isfinite(r["position_error"]) and r["position_error"] < 0.1 for r in rows.values())
+
+
+@pytest.mark.parametrize("path", ["multibody", "maximal"])
+def test_bullet_turns_a_body_right_by_a_quarter_pi_a_step_at_most(path):
+    """Finding: both paths clamp the rate's angle a step at pi/4 (ANGULAR_MOTION_THRESHOLD = 0.5 * SIMD_HALF_PI in
+    btTransformUtil::integrateTransform and btMultiBody's position step), keeping the rate's own axis vector: a step
+    that should turn the body by x > pi/4 turns it by 2 atan(x tan(pi/8) / (pi/4)). Truth: a steady spin about a
+    principal axis turns by h w exactly. At 10 rad/s, 1/20 s turns 0.5 rad (good); 1/10 s turns 0.9706 rad for 1 and
+    1/5 s 1.6241 for 2 (to 1e-12, the formula), and xcheck fails those runs, saying why."""
+    spin = np.array([0.0, 0.0, 10.0])
+    for dt, ok in ((0.05, True), (0.1, False), (0.2, False)):
+        tr = simulate(np.diag([1.0, 2.0, 3.0]), path=path, q0=[1, 0, 0, 0], omega0=spin, dt=dt, duration=1.0)
+        assert tr.ok is ok, tr.message
+        expected = 10 * dt if ok else 2 * np.arctan(10 * dt * np.tan(np.pi / 8) / (np.pi / 4))
+        assert rot.attitude_error(tr.q[1], tr.q[0]) == pytest.approx(expected, abs=1e-12)
+        assert clamped_turn(10 * dt) == pytest.approx(expected, abs=1e-15)
+        if not ok:
+            assert (f"turns {10 * dt:g} rad in a step of {dt:g} s, beyond Bullet's limit of pi/4 a step "
+                    f"(ANGULAR_MOTION_THRESHOLD: btTransformUtil.h, btMultiBody.cpp), where it turns it by "
+                    f"{expected:.3g} rad instead") in tr.message

@@ -5,7 +5,8 @@ method, passed, value, limit, note). The JSON of schema ``xcheck.convergence/1``
 (``to_json``), with every key it has always had; ``verdict`` is new.
 
 Verdicts: ``pass`` every check of the method passed; ``fail`` one failed (or the study's reference could not
-be computed); ``expected`` the failure the scenario declares (``expected_to_fail``) happened; ``inconclusive``
+be computed); ``expected`` the failure the scenario declares (``expected_to_fail``) happened, or a known finding of
+the method's engine explains each of its failed checks (a check's status ``known``); ``inconclusive``
 a check could not decide (its steps show no asymptotic range, its reference is suspect or less certain than its
 limit) and none failed; ``info`` the method has no checks (reported only).
 
@@ -133,6 +134,9 @@ class Check:
     limit: float | None = None
     note: str = ""
     inconclusive: bool = False
+    #: a known finding of the method's engine explains this failure (:attr:`xcheck.runners.Runner.known`): what it
+    #: is, with the numbers that show it at work here; the check is then neither passed nor failed, but ``known``
+    known: str = ""
 
     @property
     def name(self) -> str:
@@ -140,16 +144,16 @@ class Check:
 
     @property
     def status(self) -> str:
-        """``pass``, ``fail`` or ``inconclusive``."""
-        return "pass" if self.passed else "inconclusive" if self.inconclusive else "fail"
+        """``pass``, ``fail``, ``inconclusive`` or ``known``."""
+        return "pass" if self.passed else "inconclusive" if self.inconclusive else "known" if self.known else "fail"
 
     @property
     def failed(self) -> bool:
-        return not self.passed and not self.inconclusive
+        return not self.passed and not self.inconclusive and not self.known
 
     def to_json(self) -> dict:
         return {"name": self.name, "passed": bool(self.passed), "status": self.status, "value": json_number(self.value),
-                "limit": json_number(self.limit), "note": self.note}
+                "limit": json_number(self.limit), "note": self.note, **({"known": self.known} if self.known else {})}
 
 
 @dataclass

@@ -7,7 +7,7 @@ import os
 from dataclasses import dataclass
 from typing import Callable
 
-from .engines import WITHOUT_VARIABLE, available, installed, left_out
+from .engines import WITHOUT_VARIABLE, available, findings, installed, left_out
 from .integrators import METHODS, integrate, integrate_batch
 from .trajectory import Trajectory
 
@@ -81,6 +81,10 @@ class Runner:
     #: ``(model path) -> why or None``: why this method cannot represent a scenario's body (its engine has no model
     #: here of a top's joint or a gyrostat's wheels); such a study leaves it out and says why. None: any body.
     cannot: Callable[[object], str | None] | None = None
+    #: known findings of the engine's that explain a failed check where they are at work: each ``(check,
+    #: MethodResult, scenario) -> note or None`` (the note names the finding, its source and the numbers that show
+    #: it here); such a check is ``known``, neither passed nor failed (:func:`xcheck.study.checks.explain_known`)
+    known: tuple = ()
 
     def cannot_run(self, model) -> str | None:
         """Why this method cannot represent the body of the MJCF ``model``, or None."""
@@ -288,8 +292,8 @@ def _bullet(path):
 
 
 #: PyBullet's methods (issue 40): Bullet's two paths for one body, registered when ``pybullet`` is installed (the
-#: extra ``engines``). Both step semi-implicitly and hold the torque over the step: first order. Opt-in for now
-#: (``--with pybullet``): see :data:`xcheck.engines.ENGINES`.
+#: extra ``engines``). Both step semi-implicitly and hold the torque over the step: first order. A run whose steps
+#: turn the body beyond Bullet's pi/4 is failed, saying so (:data:`xcheck.engines.bullet.MAX_TURN`).
 BULLET_METHODS = {
     "pybullet-multibody": "Bullet's btMultiBody (PyBullet's createMultiBody; its default angular damping 0.04 set "
                           "to 0), semi-implicit Euler, the torque held over each step",
@@ -298,7 +302,7 @@ BULLET_METHODS = {
 }
 if available("pybullet"):
     RUNNERS.update({name: Runner(name, "pybullet", 1, summary, _bullet(name.removeprefix("pybullet-")),
-                                 line_style="-.", cannot=_free_bodies_only("PyBullet"), opt_in=True)
+                                 line_style="-.", cannot=_free_bodies_only("PyBullet"))
                     for name, summary in BULLET_METHODS.items()})
 
 
@@ -309,12 +313,12 @@ def _dart(ctx: RunContext, dt: float) -> Trajectory:
 
 
 #: DART's method (issue 40): its World's own integrator, registered when ``dartpy`` is installed (the extra
-#: ``engines``); the torque held over each step. Opt-in for now (``--with dart``): see :data:`xcheck.engines.ENGINES`.
+#: ``engines``); the torque held over each step. Its truncated exponential map is a known finding.
 DART_METHODS = {"dart-semi-implicit-euler": "DART's World on a FreeJoint: semi-implicit Euler, the torque held over "
                                             "each step"}
 if available("dart"):
     RUNNERS.update({name: Runner(name, "dart", 1, summary, _dart, line_style="--", cannot=_free_bodies_only("DART"),
-                                 opt_in=True)
+                                 known=(findings.dart_truncated_exponential,))
                     for name, summary in DART_METHODS.items()})
 
 
@@ -328,18 +332,20 @@ def _drake(integrator):
 
 
 #: Drake's methods (issue 40): the integrators of its Simulator in fixed-step mode on a continuous MultibodyPlant,
-#: registered when ``drake`` is installed (the extra ``engines``); the torque at every stage. Opt-in for now
-#: (``xcheck report --with drake``, ``$XCHECK_WITH``): see :data:`xcheck.engines.ENGINES`.
+#: registered when ``drake`` is installed (the extra ``engines``); the torque at every stage. Their Euler methods'
+#: known findings: the additive quaternion, explicit Euler's late first order.
 DRAKE_METHODS = {
-    "drake-explicit-euler": (1, "Drake's explicit Euler (Simulator, fixed step) on a continuous MultibodyPlant"),
-    "drake-semi-explicit-euler": (1, "Drake's semi-explicit (symplectic) Euler on a continuous MultibodyPlant"),
-    "drake-rk2": (2, "Drake's second-order Runge-Kutta on a continuous MultibodyPlant"),
-    "drake-rk3": (3, "Drake's third-order Runge-Kutta on a continuous MultibodyPlant"),
+    "drake-explicit-euler": (1, "Drake's explicit Euler (Simulator, fixed step) on a continuous MultibodyPlant",
+                             (findings.drake_additive_quaternion, findings.drake_explicit_euler_pre_asymptotic)),
+    "drake-semi-explicit-euler": (1, "Drake's semi-explicit (symplectic) Euler on a continuous MultibodyPlant",
+                                  (findings.drake_additive_quaternion,)),
+    "drake-rk2": (2, "Drake's second-order Runge-Kutta on a continuous MultibodyPlant", ()),
+    "drake-rk3": (3, "Drake's third-order Runge-Kutta on a continuous MultibodyPlant", ()),
 }
 if available("drake"):
     RUNNERS.update({name: Runner(name, "drake", order, summary, _drake(name.removeprefix("drake-")), line_style=":",
-                                 cannot=_free_bodies_only("Drake"), opt_in=True)
-                    for name, (order, summary) in DRAKE_METHODS.items()})
+                                 cannot=_free_bodies_only("Drake"), known=known)
+                    for name, (order, summary, known) in DRAKE_METHODS.items()})
 
 
 def unknown_method(name: str) -> str:

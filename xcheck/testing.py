@@ -86,6 +86,8 @@ def check_message(study, method: str, kind: str) -> str | None:
         measured = f"expected to fail (the scenario's [checks] expected_to_fail): {check.note}"
     else:
         measured = check_summary(check, sc.checks)
+    if check.known:
+        return f"{sc.name}: {method} {kind} KNOWN: {check_summary(check, sc.checks)}; {check.known}"
     word = "INCONCLUSIVE" if check.inconclusive else "FAILED"
     return (f"{sc.name}: {method} {kind} {word}: {measured}\n"
             f"  steps {_steps_text(study.steps)}, {study.reference_used} reference, {sc.duration:g} s"
@@ -95,13 +97,14 @@ def check_message(study, method: str, kind: str) -> str | None:
 
 
 def check_outcome(study, method: str, kind: str) -> tuple[str, str | None]:
-    """``(status, message)`` of a check for a test item: ``pass`` (no message), ``fail`` or ``inconclusive`` (the
-    :func:`check_message`); a study that cannot decide at all (vacuous, a suspect reference: ``study.inconclusive``)
+    """``(status, message)`` of a check for a test item: ``pass`` (no message), ``fail``, ``inconclusive`` or ``known``
+    (a known finding of the method's engine explains the failure) with the :func:`check_message`; a study that cannot decide at all (vacuous, a suspect reference: ``study.inconclusive``)
     makes its passing checks inconclusive too, saying why."""
     message = check_message(study, method, kind)
     found = [c for c in study.checks if c.method == method and c.kind == kind]
     if message is not None:
-        return ("inconclusive" if found and found[0].inconclusive else "fail"), message
+        return ("inconclusive" if found and found[0].inconclusive else "known" if found and found[0].known else
+                "fail"), message
     if study.inconclusive and kind != "expected-failure":
         return "inconclusive", f"{study.scenario.name}: {method} {kind}: INCONCLUSIVE: {'; '.join(study.inconclusive)}"
     return "pass", None

@@ -40,6 +40,7 @@ def list_all(*, ctx: Context) -> Outcome:
 
 def study_lines(st) -> list[str]:
     """A study as the terminal shows it: the verdict, one line per method, each failed or undecided check."""
+    from ..study import left_out_lines
     from ..study.checks import check_summary
 
     lines = [f"\n{st.name}: {st.outcome} (reference: {st.reference_used})"]
@@ -51,7 +52,7 @@ def study_lines(st) -> list[str]:
         exp = m.expected_order if m.expected_order is not None else "adaptive"
         err_text = "—" if m.finest is None else format(m.finest.attitude_error, ".2e")
         lines.append(f"  {name:22s} {exp!s:>8s} {obs:>8s} {err_text:>13s}  {m.status_text}")
-    lines += [f"  {name:22s} not run: {why}" for name, why in st.not_run.items()]
+    lines += [f"  {line}" for line in left_out_lines(st)]
     if st.files:
         from .score import file_lines
 
@@ -60,6 +61,9 @@ def study_lines(st) -> list[str]:
         if not c.passed and c.kind != "file":  # a file's failure: its sentence above
             summary = check_summary(c, st.scenario.checks)
             detail = f"; {c.note}" if c.note and c.note != summary else ""
+            if c.known:  # explained by a known finding of its engine: the finding, not the numbers again
+                lines.append(f"  KNOWN {c.name}: {summary}; {c.known}")
+                continue
             lines.append(f"  {'INCONCLUSIVE' if c.inconclusive else 'FAILED'} {c.name}: {summary}{detail}")
     lines.extend(f"  INCONCLUSIVE: {why}" for why in st.inconclusive)
     return lines

@@ -18,8 +18,10 @@ class Engine:
     module: str  # the module with ``simulate`` (imported only when the engine runs)
     top_level: str  # the package found (without importing it) to tell whether the engine is installed
     warm: tuple = ()  # what a worker imports as it starts, where the engine is available
-    #: its import is costly (Basilisk's: 0.5 s a process): a process that works beside a pool leaves its runs
-    #: to the workers, which import it as they start, and a study that runs them starts a worker for them
+    #: its import is costly (Basilisk's: 0.5 s a process) or its runs are long (PyBullet's, DART's, Drake's: 0.1-0.6
+    #: s a method and study): a process that works beside a pool leaves its runs to the workers, which import it as
+    #: they start and take them first (the longest tasks first balance the cores), and a study that runs them
+    #: starts a worker for them
     to_workers: bool = False
     #: the engine's own magnetometer: ``(function in its module, what it is)``; the function gives the body-frame
     #: readings ``(model, q (n, 4), B_world (3,))`` of a field fixed in the world (the determination study reads
@@ -31,7 +33,19 @@ class Engine:
     opt_in: bool = False
     #: the extra of ``pyproject.toml`` that installs it (default: the engine's name)
     extra: str = ""
+    #: the steps one of its methods takes in a study at most, summed over the study's steps coarse to fine: its
+    #: finest steps beyond are left out, and the report says so (:func:`xcheck.study.method_steps`); None: every
+    #: step. For an engine that costs microseconds a step where ours cost a tenth of one: the report's speed goals
+    step_budget: int | None = None
+    #: the same in a quick study
+    quick_step_budget: int | None = None
 
+
+#: The step budgets of the engines driven a step at a time (PyBullet, DART) or by Drake's Simulator (5-40 us a step,
+#: where ours take 0.05-0.3): a full study of 10 s keeps its steps down to 1/1024 s (20 + 40 + ... + 10240 steps),
+#: 0.1-0.8 s of one method's runs; a quick one its four coarsest of five (9 600 steps; three at least, the least that
+#: shows an order). Measured (speed.py): the quick report 15.2 s with them at 12 000, 16.5-18.5 at 25 000.
+_BUDGETS = {"step_budget": 25_000, "quick_step_budget": 12_000}
 
 ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco", "mujoco", warm=("xcheck.engines.mujoco",),
                             magnetometer=("magnetometer_readings", "MuJoCo's <magnetometer> sensor (uniform field, "
@@ -39,17 +53,14 @@ ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco", "mujoco
            "basilisk": Engine("basilisk", "bsk", "xcheck.engines.basilisk", "Basilisk",
                               warm=("xcheck.engines.basilisk", "Basilisk.simulation.spacecraft"), to_workers=True),
            "mjx": Engine("mjx", "mujoco-mjx", "xcheck.engines.mjx", "jax", opt_in=True),
-           # opt-in until its runs are planned off the report's critical path: a Python call a step (7 us) made the
-           # full report 142 s instead of 31 at the first-order methods' finest steps (issue 40's speed goals)
+           # PyBullet, DART and Drake: microseconds a step where ours take a tenth of one (a Python call a step; Drake's
+           # Simulator): a step budget a method and study, their runs to the workers first (the longest tasks first)
            "pybullet": Engine("pybullet", "pybullet", "xcheck.engines.bullet", "pybullet",
-                              warm=("xcheck.engines.bullet",), opt_in=True, extra="engines"),
-           # DART and Drake opt-in while verdicts of their first-order steps are read (docs/findings.md): DART's
-           # truncated exponential below 1e-3 rad a step, Drake's explicit Euler pre-asymptotic on a fast spin and
-           # its semi-explicit Euler of order 2 on the gyroscope
+                              warm=("xcheck.engines.bullet",), extra="engines", to_workers=True, **_BUDGETS),
            "dart": Engine("dart", "dartpy", "xcheck.engines.dart", "dartpy", warm=("xcheck.engines.dart",),
-                          opt_in=True, extra="engines"),
+                          extra="engines", to_workers=True, **_BUDGETS),
            "drake": Engine("drake", "drake", "xcheck.engines.drake", "pydrake", warm=("xcheck.engines.drake",),
-                           opt_in=True, extra="engines")}
+                           extra="engines", to_workers=True, **_BUDGETS)}
 
 
 #: An optional engine is left out, although installed, when ``$XCHECK_WITHOUT`` names it (comma-separated):

@@ -11,7 +11,8 @@ physics client, stepped by Bullet's own integrator through either of its two pat
   ``getDynamicsInfo``): Bullet's static body, never moved, or with a collision shape one whose centre of mass gravity
   throws to -inf at the first step; xcheck gives the mass again in the same call (a test keeps this).
 
-Both paths step semi-implicitly (the velocity first, then the attitude with the new velocity): first order. The
+Both paths turn the body right by pi/4 a step at most (:data:`MAX_TURN`, :func:`clamped_turn` beyond): a run whose
+steps would turn it further is failed, saying so. Both paths step semi-implicitly (the velocity first, then the attitude with the new velocity): first order. The
 torque is applied through ``applyExternalTorque`` in world components before each step, which Bullet clears after
 it: evaluated at the step's start and held over it (first order, as the step itself).
 
@@ -24,6 +25,7 @@ principal axes (columns, body components), and converted back. Gravity is off (o
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
@@ -32,10 +34,23 @@ from ..body import principal_axes
 from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
 from .held_input import engine_torque
 
-__all__ = ["simulate", "free_flight", "PATHS", "to_bullet", "from_bullet", "DEFAULT_ANGULAR_DAMPING"]
+__all__ = ["simulate", "free_flight", "PATHS", "to_bullet", "from_bullet", "DEFAULT_ANGULAR_DAMPING", "MAX_TURN",
+           "clamped_turn"]
 
 #: Bullet's two paths for one body.
 PATHS = ("multibody", "maximal")
+#: The most Bullet turns a body right in a step [rad]: beyond it both paths clamp the rate's angle a step
+#: (``ANGULAR_MOTION_THRESHOLD = 0.5 * SIMD_HALF_PI``, ``btTransformUtil::integrateTransform`` and
+#: ``btMultiBody::stepPositionsMultiDof``) and turn the body by :func:`clamped_turn` instead; a run whose steps turn
+#: further is reported failed, saying so.
+MAX_TURN = math.pi / 4
+
+
+def clamped_turn(turn: float) -> float:
+    """What Bullet turns a body by in a step that should turn it by ``turn`` > pi/4 rad: the clamped angle's sine
+    with the rate's own axis vector and the clamped cosine, ``[w sin(pi/8) / (pi/4 / h), cos(pi/8)]``, normalised:
+    ``2 atan(turn tan(pi/8) / (pi/4))`` (0.971 rad for 1)."""
+    return 2 * math.atan(turn * math.tan(math.pi / 8) / MAX_TURN) if turn > MAX_TURN else turn
 #: ``btMultiBody``'s default angular damping (what ``createMultiBody`` gives a body unless it is changed).
 DEFAULT_ANGULAR_DAMPING = 0.04
 
@@ -156,6 +171,13 @@ def simulate(inertia, *, path: str, q0, omega0, dt: float, duration: float, torq
     method = f"pybullet-{path}"
     traj = Trajectory(t=t, q=continuous_quaternions(q), omega=omega, method=method, dt=float(dt),
                       extras={"evaluations": n, "torque_input": "held over each step" if torque is not None else None})
+    turn = float(np.max(np.linalg.norm(ang[1:], axis=1) * np.diff(t))) if n else 0.0
+    if turn > MAX_TURN:  # Bullet turned the body by less than its rate asks: not the step's answer
+        traj.status, traj.message = "failed", (
+            f"{method}: the body turns {turn:.3g} rad in a step of {float(dt):g} s, beyond Bullet's limit of pi/4 a "
+            f"step (ANGULAR_MOTION_THRESHOLD: btTransformUtil.h, btMultiBody.cpp), where it turns it by "
+            f"{clamped_turn(turn):.3g} rad instead")
+        return traj
     bad = ~(np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(omega), axis=1))
     if bad.any():
         k = int(np.argmax(bad))

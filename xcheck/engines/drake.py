@@ -71,20 +71,21 @@ def _torque_system(d, body_index, torque):
 
     world_torque = engine_torque(torque, form="wxyz", rates="world")
 
+    force = d.ExternallyAppliedSpatialForce()  # one, its torque set at each evaluation (set_value copies it)
+    force.body_index = body_index
+    force.p_BoBq_B = np.zeros(3)
+    zero = np.zeros(3)
+
     class Torque(d.LeafSystem):
         def __init__(self):
             super().__init__()
-            self.DeclareVectorInputPort("state", 13)
+            self.port = self.DeclareVectorInputPort("state", 13)
             self.DeclareAbstractOutputPort("forces", lambda: d.AbstractValue.Make([d.ExternallyAppliedSpatialForce()]),
                                            self._calc)
 
         def _calc(self, context, output):
-            x = self.get_input_port(0).Eval(context)
-            tau = world_torque(context.get_time(), x[0:4], x[7:10])
-            force = d.ExternallyAppliedSpatialForce()
-            force.body_index = body_index
-            force.p_BoBq_B = np.zeros(3)
-            force.F_Bq_W = d.SpatialForce(tau, np.zeros(3))
+            x = self.port.Eval(context)
+            force.F_Bq_W = d.SpatialForce(world_torque(context.get_time(), x[0:4], x[7:10]), zero)
             output.set_value([force])
 
     return Torque()

@@ -1,5 +1,6 @@
-"""What ``xcheck releases`` found, recorded for the checks that quote it (issue 29): an older MuJoCo's (or MJX's) failed
-RK4 order check names the finding and the first good release (:mod:`xcheck.study.checks`). No imports: the study
+"""Known findings the checks quote: what ``xcheck releases`` found (issue 29): an older MuJoCo's (or MJX's) failed
+RK4 order check names the finding and the first good release (:mod:`xcheck.study.checks`); and the engines' findings
+that explain a failed check where they are at work (issue 40). No imports: the study
 reads it without loading the release machinery."""
 
 from __future__ import annotations
@@ -26,3 +27,68 @@ def release_note(version: str | None, engine: str = "MuJoCo") -> str | None:
                 f"{RK4_FOURTH_ORDER_FROM} (docs/mjx.md)")
     return (f"a known finding: MuJoCo {version}'s RK4 is second order on rotating bodies (free and ball joints, "
             f"every bundled scenario); fourth order from MuJoCo {RK4_FOURTH_ORDER_FROM} on (docs/mujoco-releases.md)")
+
+
+# ------------------------------------------------------------------------------------------------------------------
+# Known findings of the engines that explain a failed check where they are at work (``Runner.known``, issue 40):
+# ``(check, MethodResult, scenario) -> note or None``, from what the study measured; each has its test and its entry
+# in docs/findings.md.
+# ------------------------------------------------------------------------------------------------------------------
+#: DART's exponential map is exact from this turn a step on [rad] (below it, ``expMapRot`` truncates its series)
+DART_EXACT_TURN = 1e-3
+
+
+def _rate(scenario) -> float:
+    return sum(float(w) ** 2 for w in scenario.omega0) ** 0.5
+
+
+def dart_truncated_exponential(check, method, scenario) -> str | None:
+    """DART's ``expMapRot`` (math/Geometry.cpp) takes ``I + [phi] + [phi]^2/2`` below ``|phi| = 1e-3`` rad: a step
+    turning the body by less errs by ``(h w)^3/6``, a floor under the error that no smaller step removes."""
+    f = method.finest
+    if check.kind not in ("order", "final-error") or f is None:
+        return None
+    turn = f.dt * _rate(scenario)
+    if not 0 < turn < DART_EXACT_TURN:
+        return None
+    return (f"a known finding: DART's exponential map is truncated below {DART_EXACT_TURN:g} rad a step (expMapRot, "
+            f"math/Geometry.cpp: I + [φ] + [φ]²/2), an error of (hω)³/6 a step; the finest step here turns the body "
+            f"{turn:.2g} rad (docs/findings.md)")
+
+
+def drake_additive_quaternion(check, method, scenario) -> str | None:
+    """Drake's Euler methods integrate the free body's quaternion additively, ``q + h q'`` (its norm let drift):
+    the turn a step is ``2 atan(h w / 2)`` instead of ``h w``, an error of second order that outweighs the rates'
+    first-order one where the rates are nearly steady (a fast spin): an observed order near 2."""
+    if check.kind != "order" or check.value is None or method.expected_order is None \
+            or check.value <= method.expected_order:
+        return None
+    return (f"a known finding: Drake integrates the free body's quaternion additively (q + h q̇, unnormalised), an "
+            f"error of second order that outweighs the rates' first-order one at these steps (observed order "
+            f"{check.value:.2f}; docs/findings.md)")
+
+
+#: At the finest step, a quaternion's norm off unit or an energy off its start by more than these shows the steps still
+#: coarse for Drake's explicit Euler on this motion
+DRAKE_NORM_PRE_ASYMPTOTIC = 0.01
+DRAKE_ENERGY_PRE_ASYMPTOTIC = 0.005
+
+
+def drake_explicit_euler_pre_asymptotic(check, method, scenario) -> str | None:
+    """Drake's explicit Euler reaches its first order only at fine steps on a fast or tumbling motion (the bundled
+    gyroscope: local orders 0.58, 0.75, 0.87 from 1/2048 to 1/8192 s, 0.96 at 1/32768 s). At work where its error still
+    falls at the finest steps (it converges: not a defect) and the finest run shows the steps coarse for the motion:
+    its unnormalised quaternion's norm, which grows by ``(1 + (h w / 2)^2)^(1/2)`` a step, or its energy, which
+    explicit Euler raises, off by more than :data:`DRAKE_NORM_PRE_ASYMPTOTIC` / :data:`DRAKE_ENERGY_PRE_ASYMPTOTIC`."""
+    runs = [r for r in sorted(method.runs, key=lambda r: -r.dt) if r.ok and r.attitude_error is not None]
+    if check.kind != "order" or len(runs) < 2 or runs[-1].attitude_error >= runs[-2].attitude_error:
+        return None
+    if check.value is not None and method.expected_order is not None and check.value > method.expected_order:
+        return None
+    f = runs[-1]
+    norm, energy = f.norm_drift or 0.0, f.energy_drift or 0.0
+    if norm <= DRAKE_NORM_PRE_ASYMPTOTIC and energy <= DRAKE_ENERGY_PRE_ASYMPTOTIC:
+        return None
+    return (f"a known finding: Drake's explicit Euler reaches its first order only at fine steps on a fast or tumbling "
+            f"motion (the bundled gyroscope: 0.58 to 0.87 from 1/2048 to 1/8192 s); its error still falls, and at the "
+            f"finest step its quaternion's norm is {norm:.2g} off unit and its energy {energy:.2g} off (docs/findings.md)")

@@ -98,8 +98,8 @@ def engine_torque(torque, *, form: str, right=None, rates: str):
     """``f(t, att, w) -> (3,)``: ``torque`` (a :class:`~xcheck.fields.TorqueModel`, or any ``(t, q, omega) -> (3,)``
     of body components) as an engine applies it, in world components, from the engine's attitude ``att`` (``form``:
     "wxyz", "xyzw" or "dcm") of a frame ``right`` off the body (see :func:`world_torque`) and its rate ``w``
-    (``rates``: "world" or "body" components). A torque model is evaluated compiled; another callable through
-    :mod:`xcheck.rotations` (the same numbers to round-off)."""
+    (``rates``: "world" or "body" components), both float arrays. A torque model is evaluated compiled; another
+    callable through :mod:`xcheck.rotations` (the same numbers to round-off)."""
     from .. import rotations as rot
     from ..fields import TorqueModel
 
@@ -110,10 +110,9 @@ def engine_torque(torque, *, form: str, right=None, rates: str):
     if isinstance(torque, TorqueModel):
         kind, P, T = torque.kernel_data()
 
-        def compiled(t, att, w):
+        def compiled(t, att, w):  # att and w: float arrays (the engines' rows), called at every step or stage
             out = np.empty(3)
-            world_torque(kind, P, T, float(t), np.ascontiguousarray(att, dtype=float).ravel(), code, right,
-                         np.ascontiguousarray(w, dtype=float), in_world, out)
+            world_torque(kind, P, T, t, att.reshape(-1), code, right, w, in_world, out)
             return out
         return compiled
 

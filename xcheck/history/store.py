@@ -425,7 +425,7 @@ def report_metrics(results: dict):
         yield name, "", None, "order_floor", sc.get("order_floor")
         for check in sc.get("checks", []):
             status = check.get("status") or ("pass" if check["passed"] else "fail")
-            yield name, "", None, f"check:{check['name']}", {"pass": 1.0, "inconclusive": 0.5, "fail": 0.0}[status]
+            yield name, "", None, f"check:{check['name']}", {"pass": 1.0, "known": 1.0, "inconclusive": 0.5, "fail": 0.0}[status]
         for file, f in sc.get("files", {}).items():  # a trajectory file of another simulator (issue 39)
             for metric in ("max_attitude_error", "max_rate_error", "growth"):
                 if f.get(metric) is not None:

@@ -31,7 +31,8 @@ from .files import score_trajectories
 from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_method
 
 __all__ = ["run_study", "run_studies", "assemble", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows",
-           "planned_checks", "default_methods", "not_run", "comparison_partner"]
+           "planned_checks", "default_methods", "not_run", "comparison_partner", "method_steps",
+           "left_out_lines"]
 
 SCHEMA = "xcheck.convergence/1"
 
@@ -65,6 +66,8 @@ class StudyResult:
     files: dict = field(default_factory=dict)
     #: methods left out because they cannot represent the scenario's body: name -> why
     not_run: dict = field(default_factory=dict)
+    #: an engine's finest steps left out by its step budget (:func:`method_steps`): name -> (steps, why)
+    over_budget: dict = field(default_factory=dict)
 
     @property
     def outcome(self) -> str:
@@ -105,7 +108,9 @@ class StudyResult:
                 **({"model_torque": self.model_torque} if self.model_torque else {}),
                 **({"wheels_stiffness": self.wheels_stiffness} if self.wheels_stiffness else {}),
                 **({"files": {n: f.to_json() for n, f in self.files.items()}} if self.files else {}),
-                **({"not_run": dict(self.not_run)} if self.not_run else {})}
+                **({"not_run": dict(self.not_run)} if self.not_run else {}),
+                **({"over_budget": {m: {"steps": list(d), "why": why} for m, (d, why) in self.over_budget.items()}}
+                   if self.over_budget else {})}
 
 
 def default_methods(scenario: Scenario) -> list[str]:
@@ -130,6 +135,45 @@ def not_run(scenario: Scenario) -> dict:
     if scenario.methods:
         return {}
     return {m: why for m, r in RUNNERS.items() for why in [r.cannot_run(scenario.model)] if why}
+
+
+def method_steps(scenario: Scenario, method: str, steps, *, quick: bool = False) -> tuple[tuple, tuple, str]:
+    """``(steps run, steps left out, why)`` of ``method`` in a study at ``steps`` (coarse to fine): every step, but for
+    an engine with a step budget (:attr:`xcheck.engines.Engine.step_budget`, ``quick_step_budget`` in a ``quick``
+    study) only the coarsest whose steps add up to it at most, three at least (an order needs them)."""
+    from ..engines import ENGINES
+    from ..trajectory import step_plan
+
+    steps = tuple(steps)
+    engine = ENGINES.get(RUNNERS[method].engine)
+    budget = None if engine is None or RUNNERS[method].adaptive else \
+        engine.quick_step_budget if quick else engine.step_budget
+    if budget is None:
+        return steps, (), ""
+    kept, total = [], 0
+    for dt in steps:
+        total += step_plan(float(dt), scenario.duration)[0]
+        if total > budget and len(kept) >= 3:
+            break
+        kept.append(dt)
+    left = steps[len(kept):]
+    why = (f"the step budget of {budget:,} steps a method and study of an engine that takes microseconds a step "
+           f"where ours take a tenth of one") if left else ""
+    return tuple(kept), left, why
+
+
+def left_out_lines(st: StudyResult) -> list[str]:
+    """What a study left out, one line for the methods left out for the same reason (at the same steps): those that
+    cannot represent its body (:attr:`StudyResult.not_run`), an engine's steps beyond its budget
+    (:func:`method_steps`). What the report and the terminal say: never a silent gap."""
+    from ..trajectory import step_label
+
+    groups: dict = {}
+    for name, why in st.not_run.items():
+        groups.setdefault(("", why), []).append(name)
+    for name, (left, why) in st.over_budget.items():
+        groups.setdefault((f" at {', '.join(step_label(d) for d in left)} s", why), []).append(name)
+    return [f"{', '.join(names)} not run{where}: {why}" for (where, why), names in groups.items()]
 
 
 def comparison_partner(scenario: Scenario, method: str, methods) -> str | None:
@@ -177,11 +221,14 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
         raise ValueError(f"steps: {exc}") from None
     tolerances = scenario.quick_tolerances if quick else scenario.tolerances
     guard_references([scenario])
-    tasks = [(scenario, m, tuple(steps), comparison_partner(scenario, m, methods), tolerances, timing) for m in methods]
+    # the engines' step budgets hold for the scenario's steps, not for steps asked for by name
+    planned = {m: (tuple(steps), (), "") if steps_given else method_steps(scenario, m, steps, quick=quick)
+               for m in methods}
+    tasks = [(scenario, m, planned[m][0], comparison_partner(scenario, m, methods), tolerances, timing) for m in methods]
     results = map_tasks(run_method, tasks, workers=workers, progress=progress, pool=pool,
                    labels=[f"{scenario.name}: {m}" for m in methods], here=prefer_here if here else None)
-    return score_trajectories(about_the_model(assemble(scenario, steps, results, quick=quick and not steps_given),
-                                              quick))
+    return score_trajectories(about_the_model(assemble(scenario, steps, results, quick=quick and not steps_given,
+                                                       planned=planned), quick))
 
 
 def about_the_model(st: StudyResult, quick: bool = False) -> StudyResult:
@@ -213,13 +260,13 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
     for sc in scenarios:
         methods = default_methods(sc)
         steps = sorted((float(s) for s in (sc.quick_steps if quick else sc.steps)), reverse=True)
-        plans.append((sc, methods, steps))
-    tasks = [(sc, m, tuple(steps), comparison_partner(sc, m, methods), sc.quick_tolerances if quick else sc.tolerances)
-             for sc, methods, steps in plans for m in methods]
-    labels = [f"{sc.name}: {m}" for sc, methods, _ in plans for m in methods]
-    owner = [k for k, (_, methods, _) in enumerate(plans) for _ in methods]
-    first = np.cumsum([0] + [len(methods) for _, methods, _ in plans])
-    missing = [len(methods) for _, methods, _ in plans]
+        plans.append((sc, methods, steps, {m: method_steps(sc, m, steps, quick=quick) for m in methods}))
+    tasks = [(sc, m, planned[m][0], comparison_partner(sc, m, methods), sc.quick_tolerances if quick else sc.tolerances)
+             for sc, methods, _, planned in plans for m in methods]
+    labels = [f"{sc.name}: {m}" for sc, methods, _, _ in plans for m in methods]
+    owner = [k for k, (_, methods, _, _) in enumerate(plans) for _ in methods]
+    first = np.cumsum([0] + [len(methods) for _, methods, _, _ in plans])
+    missing = [len(methods) for _, methods, _, _ in plans]
     studies: list = [None] * len(plans)
     results: list = [None] * len(tasks)
 
@@ -228,9 +275,9 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
         k = owner[i]
         missing[k] -= 1
         if missing[k] == 0:
-            sc, _, steps = plans[k]
+            sc, _, steps, planned = plans[k]
             studies[k] = score_trajectories(about_the_model(assemble(sc, steps, results[first[k]:first[k + 1]],
-                                                                     quick=quick), quick))
+                                                                     quick=quick, planned=planned), quick))
             if on_study:
                 on_study(studies[k])
 
@@ -255,9 +302,10 @@ def guard_references(scenarios) -> None:
                 pass
 
 
-def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> StudyResult:
+def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned=None) -> StudyResult:
     """Orders, checks and verdicts from the workers' results. ``quick``: the final-error and invariant
-    checks, which are about the finest steps of the full study, are not applied."""
+    checks, which are about the finest steps of the full study, are not applied. ``planned``: each method's
+    :func:`method_steps` (what it left out is said)."""
     floor = study_floor(results)
     methods, series = {}, {}
     for res in results:
@@ -286,8 +334,10 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
     else:
         checks = None
     comparisons = resolve_comparisons(scenario, [c for res in results for c in res.comparisons])
+    over_budget = {m: (left, why) for m, (_, left, why) in (planned or {}).items() if left}
     if checks is None:
         checks = study_checks(scenario, methods, scenario.checks, quick, comparisons)
+        checks = _budget_undecided(checks, over_budget)
     reference_check = next((res.reference_check for res in results if res.reference_check), None)
     used = reference_check["used"] if reference_check else scenario.reference
     reasons = [] if reference_error else qualify(scenario, methods, checks, reference=used,
@@ -298,7 +348,23 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False) -> Stud
     return StudyResult(scenario=scenario, steps=list(steps), methods=methods, checks=checks, order_floor=floor,
                        quick=quick, series=series, comparisons=comparisons, reference_check=reference_check,
                        inconclusive=reasons, not_run={m: why for m, why in not_run(scenario).items()
-                                                      if m not in methods and _offered(RUNNERS[m])})
+                                                      if m not in methods and _offered(RUNNERS[m])},
+                       over_budget=over_budget)
+
+
+def _budget_undecided(checks: list, over_budget: dict) -> list:
+    """``checks`` without the order checks that the steps run could not decide where a step budget left out the
+    finer ones (:func:`method_steps`): the study chose not to run the steps that would decide, so it claims nothing
+    (the method is reported without that check, as a method it cannot run is). What was left undecided is said with
+    the steps left out (``over_budget``, updated in place)."""
+    kept = []
+    for c in checks:
+        if c.kind == "order" and c.inconclusive and c.method in over_budget:
+            left, why = over_budget[c.method]
+            over_budget[c.method] = (left, f"{why}; its order is not measured at the steps run ({c.note})")
+            continue
+        kept.append(c)
+    return kept
 
 
 def _steady_hint(scenario: Scenario) -> str:

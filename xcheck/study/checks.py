@@ -35,7 +35,9 @@ def verdict(method: str, checks) -> str:
         return "expected" if all(c.passed for c in related) else "fail"
     if any(c.failed for c in related):
         return "fail"
-    return "inconclusive" if any(c.inconclusive for c in related) else "pass"
+    if any(c.inconclusive for c in related):
+        return "inconclusive"
+    return "expected" if any(c.known for c in related) else "pass"
 
 
 @dataclass(frozen=True)
@@ -154,7 +156,8 @@ def check_summary(check: Check, cfg: dict) -> str:
         if check.limit is None:
             return check.note
         allowed = f"{check.limit - cfg['order_tolerance']:.2f} … {check.limit + cfg['order_excess']:.2f}"
-        return f"observed order {num(check.value)}; expected {num(check.limit)} (allowed {allowed})"
+        observed = "—" if check.value is None else f"{check.value:.4g}"  # 2.001 is not within 2.00
+        return f"observed order {observed}; expected {num(check.limit)} (allowed {allowed})"
     what = {"final-error": "attitude error at the finest step", "invariants": "energy / momentum drift at the "
             "finest step", "agreement": "worse of the two errors"}.get(check.kind)
     if what is None or check.value is None:
@@ -291,6 +294,22 @@ def study_checks(scenario: Scenario, methods: dict, cfg, quick: bool = False, co
     for m in methods.values():
         if m.name not in expected_to_fail:
             checks += made(m, True)
+    return explain_known(scenario, methods, checks)
+
+
+def explain_known(scenario: Scenario, methods: dict, checks: list) -> list:
+    """Mark each failed or undecided check that a known finding of its method's engine explains (:attr:`Runner.known`:
+    the finding says whether it is at work in this study, from what the study measured) as ``known``, in place:
+    neither passed, failed nor inconclusive, its note the finding's. ``checks``."""
+    for c in checks:
+        runner = RUNNERS.get(c.method) if c.method else None
+        if c.passed or runner is None or c.method not in methods:
+            continue
+        for finding in runner.known:
+            note = finding(c, methods[c.method], scenario)
+            if note:
+                c.known, c.inconclusive = note, False
+                break
     return checks
 
 
