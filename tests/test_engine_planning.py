@@ -130,3 +130,29 @@ def test_an_order_the_budget_kept_from_deciding_is_not_claimed():
     assert [c.method for c in kept] == ["f", "g"]
     assert over["e"][1] == f"the step budget; its order is not measured at the steps run ({note})"
     assert over["f"][1] == "the step budget"
+
+
+def test_an_engine_that_fails_to_import_is_left_out_and_named(tmp_path, monkeypatch):
+    """An engine installed but broken here (its module raises ImportError, as a missing shared library makes it): the
+    study leaves its methods out saying why, and the versions line names it with the reason; no traceback."""
+    import subprocess
+    import sys
+
+    if "pybullet-maximal" not in RUNNERS:
+        pytest.skip("PyBullet is not installed (pip install 'xcheck[engines]')")
+    fake = tmp_path / "fake"
+    fake.mkdir()
+    (fake / "pybullet.py").write_text('raise ImportError("libGL.so.1: cannot open shared object file")\n')
+    code = ("import json, sys\n"
+            "from xcheck.cli import main\n"
+            "sys.exit(main(['converge', 'boxes-simple', '--quick', '--workers', '1', '--json', sys.argv[1]]))\n")
+    out = tmp_path / "study.json"
+    run = subprocess.run([sys.executable, "-c", code, str(out)], capture_output=True, text=True,
+                         env={**__import__("os").environ, "PYTHONPATH": str(fake)}, timeout=600)
+    assert "Traceback" not in run.stderr and "internal error" not in run.stderr, run.stderr
+    assert ("pybullet-multibody, pybullet-maximal not run: pybullet is installed but fails to import here: "
+            "ImportError: libGL.so.1: cannot open shared object file") in run.stdout
+    data = __import__("json").loads(out.read_text())
+    assert "pybullet-maximal" not in data["methods"]
+    assert data["versions"]["pybullet"].endswith("(fails to import: ImportError: libGL.so.1: cannot open shared "
+                                                  "object file)")

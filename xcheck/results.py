@@ -113,6 +113,8 @@ class MethodRuns:
     reference_error: str | None = None
     batched: bool = False
     reference_check: dict | None = None
+    #: the method's engine could not be imported in the worker (a broken install): why; nothing was run
+    import_error: str | None = None
 
     @classmethod
     def without_reference(cls, method: str, settings, reason: str) -> "MethodRuns":

@@ -14,18 +14,29 @@ CORE_PACKAGES = ("numpy", "scipy", "numba", "matplotlib")
 
 
 _VERSIONS: dict = {}
+#: engines installed but failing to import in this run: engine -> why (:func:`note_import_failure`)
+_IMPORT_FAILURES: dict = {}
+
+
+def note_import_failure(engine: str, why: str) -> None:
+    """Record that ``engine`` is installed but fails to import here (a study found it): every versions line after
+    names it with the reason."""
+    _IMPORT_FAILURES[engine] = why
 
 
 def versions() -> dict:
     """Versions of xcheck, every engine's package (:data:`xcheck.engines.ENGINE_PACKAGES`), numpy, scipy,
     numba, matplotlib and Python, read from the installed distributions (so that nothing imports an engine
-    for it). Read once per process (a study's result records them: 3 ms a time, the cost of a sweep's cell)."""
+    for it); an engine a study found failing to import is named with the reason. Read once per process (a study's result records them: 3 ms a time, the cost of a sweep's cell)."""
     from .engines import ENGINE_PACKAGES
 
     if not _VERSIONS:
         _VERSIONS.update({"xcheck": __version__, **{name: package_version(pkg) for name, pkg in ENGINE_PACKAGES.items()},
                           **{pkg: package_version(pkg) for pkg in CORE_PACKAGES}, "python": platform.python_version()})
-    return dict(_VERSIONS)
+    out = dict(_VERSIONS)
+    for engine, why in _IMPORT_FAILURES.items():
+        out[engine] = f"{out.get(engine)} (fails to import: {why})"
+    return out
 
 
 def machine() -> dict:

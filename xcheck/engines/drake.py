@@ -25,7 +25,7 @@ from .. import rotations as rot
 from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
 from .held_input import engine_torque
 
-__all__ = ["simulate", "INTEGRATORS", "to_drake", "from_drake"]
+__all__ = ["simulate", "free_flight", "INTEGRATORS", "to_drake", "from_drake"]
 
 #: Our names -> (Drake's integrator name for ResetIntegratorFromFlags, order, derivative evaluations a step).
 INTEGRATORS = {"explicit-euler": ("explicit_euler", 1, 1), "semi-explicit-euler": ("semi_explicit_euler", 1, 1),
@@ -91,6 +91,52 @@ def _torque_system(d, body_index, torque):
     return Torque()
 
 
+def _run(inertia, *, mass: float, integrator: str, state0, dt: float, duration: float, gravity, torque=None):
+    """Drake's ``integrator`` at the fixed step ``dt`` on one free body (``inertia`` (3, 3) about its centre of mass,
+    ``mass``) from the plant state ``state0`` ``[q_WB, p_WB, w_WB, v_WB]`` (13,) for ``duration`` s under ``gravity``,
+    ``torque`` a LeafSystem's input at every stage: ``(times, states (n + 1, 13))``, logged every step."""
+    d = _drake()
+    I = np.asarray(inertia, dtype=float)
+    builder = d.DiagramBuilder()
+    plant = builder.AddSystem(d.MultibodyPlant(0.0))
+    body = plant.AddRigidBody("body", d.SpatialInertia.MakeFromCentralInertia(
+        float(mass), np.zeros(3), d.RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2])))
+    plant.mutable_gravity_field().set_gravity_vector(np.asarray(gravity, dtype=float))
+    plant.Finalize()
+    if torque is not None:
+        source = builder.AddSystem(_torque_system(d, body.index(), torque))
+        builder.Connect(plant.get_state_output_port(), source.get_input_port(0))
+        builder.Connect(source.get_output_port(0), plant.get_applied_spatial_force_input_port())
+    logger = d.LogVectorOutput(plant.get_state_output_port(), builder, publish_period=float(dt))
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    plant.SetPositionsAndVelocities(plant.GetMyMutableContextFromRoot(context), np.asarray(state0, dtype=float))
+    simulator = d.Simulator(diagram, context)
+    integ = d.ResetIntegratorFromFlags(simulator, INTEGRATORS[integrator][0], float(dt))
+    integ.set_fixed_step_mode(True)
+    simulator.Initialize()
+    simulator.AdvanceTo(float(duration))
+    diagram.ForcedPublish(context)  # the end: a periodic publish at exactly the duration is not guaranteed
+    log = logger.FindLog(context)
+    times = np.asarray(log.sample_times(), dtype=float)
+    data = np.asarray(log.data(), dtype=float).T
+    keep = np.concatenate([np.diff(times) > 0.5 * dt, [True]])  # the forced publish may repeat the last sample
+    return times[keep], data[keep]
+
+
+def free_flight(*, integrator: str, mass: float, moments, omega0, v0, gravity, dt: float, nsteps: int):
+    """Drake's ``integrator`` flying a body whole, translation and gravity included, as the boxes benchmark does
+    (:mod:`xcheck.league`): principal ``moments`` along the body axes, the identity attitude at the origin, ``v0`` and
+    ``omega0`` (world and body components alike at the identity), ``nsteps`` steps of ``dt``. Returns ``(t, c, q, v,
+    omega)`` like :func:`xcheck.engines.mujoco.free_flight` (omega in body components)."""
+    state0 = np.concatenate([[1.0, 0.0, 0.0, 0.0], np.zeros(3), np.asarray(omega0, dtype=float),
+                             np.asarray(v0, dtype=float)])
+    times, data = _run(np.diag(np.asarray(moments, dtype=float)), mass=mass, integrator=integrator, state0=state0,
+                       dt=dt, duration=nsteps * float(dt), gravity=gravity)
+    q, omega = from_drake(np.concatenate([data[:, 0:4], data[:, 7:10]], axis=1))
+    return times, data[:, 4:7], q, data[:, 10:13], omega
+
+
 def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float, torque=None) -> Trajectory:
     """Run Drake's ``integrator`` (:data:`INTEGRATORS`) at the fixed step ``dt`` on a free body of ``inertia`` (3, 3)
     [kg m^2] from ``(q0, omega0)`` (ours) for ``duration`` s; ``torque`` None or ``(t, q, omega) -> (3,)`` [N m] in
@@ -101,37 +147,10 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
     n, last_h = step_plan(float(dt), float(duration))
     if abs(last_h - dt) > 1e-9 * dt:
         raise ValueError(f"dt: {dt:g} s does not divide the duration {duration:g} s (Drake's log is periodic)")
-    d = _drake()
-    I = np.asarray(inertia, dtype=float)
-    builder = d.DiagramBuilder()
-    plant = builder.AddSystem(d.MultibodyPlant(0.0))
-    body = plant.AddRigidBody("body", d.SpatialInertia.MakeFromCentralInertia(
-        1.0, np.zeros(3), d.RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2])))
-    plant.mutable_gravity_field().set_gravity_vector(np.zeros(3))
-    plant.Finalize()
-    if torque is not None:
-        source = builder.AddSystem(_torque_system(d, body.index(), torque))
-        builder.Connect(plant.get_state_output_port(), source.get_input_port(0))
-        builder.Connect(source.get_output_port(0), plant.get_applied_spatial_force_input_port())
-    logger = d.LogVectorOutput(plant.get_state_output_port(), builder, publish_period=float(dt))
-    diagram = builder.Build()
-    context = diagram.CreateDefaultContext()
-    plant_context = plant.GetMyMutableContextFromRoot(context)
-    state0 = to_drake(q0, omega0)
-    plant.SetPositionsAndVelocities(plant_context, np.concatenate([state0[0:4], np.zeros(3), state0[4:7],
-                                                                   np.zeros(3)]))
-    simulator = d.Simulator(diagram, context)
-    name, _, evaluations = INTEGRATORS[integrator]
-    integ = d.ResetIntegratorFromFlags(simulator, name, float(dt))
-    integ.set_fixed_step_mode(True)
-    simulator.Initialize()
-    simulator.AdvanceTo(float(duration))
-    diagram.ForcedPublish(context)  # the end: a periodic publish at exactly the duration is not guaranteed
-    log = logger.FindLog(context)
-    times = np.asarray(log.sample_times(), dtype=float)
-    data = np.asarray(log.data(), dtype=float).T
-    keep = np.concatenate([np.diff(times) > 0.5 * dt, [True]])  # the forced publish may repeat the last sample
-    times, data = times[keep], data[keep]
+    attitude = to_drake(q0, omega0)
+    times, data = _run(inertia, mass=1.0, integrator=integrator, dt=dt, duration=duration, gravity=np.zeros(3),
+                       torque=torque, state0=np.concatenate([attitude[0:4], np.zeros(3), attitude[4:7], np.zeros(3)]))
+    evaluations = INTEGRATORS[integrator][2]
     q, omega = from_drake(np.concatenate([data[:, 0:4], data[:, 7:10]], axis=1))
     method = f"drake-{integrator}"
     extras = {"evaluations": evaluations * n, "norm": np.linalg.norm(data[:, 0:4], axis=1),

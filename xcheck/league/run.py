@@ -88,8 +88,24 @@ def dart_rows(case_name: str, steps=B.STEPS) -> list[dict]:
     return _rows(case_name, "dart", "dart-semi-implicit-euler", steps, fly)
 
 
+def drake_rows(case_name: str, integrator: str, steps=B.STEPS) -> list[dict]:
+    """Drake's ``integrator`` on one case at each step, flying the whole body (issue 40: Drake, live; it was not in
+    the 2015 benchmark)."""
+    from ..engines.drake import free_flight
+
+    def fly(case, dt, n):
+        t, c, q, v, w = free_flight(integrator=integrator, mass=B.MASS, moments=B.INERTIA, omega0=case.omega0,
+                                    v0=case.v0, gravity=case.gravity, dt=dt, nsteps=n)
+        return t, q, w, c, v
+    return _rows(case_name, "drake", f"drake-{integrator}", steps, fly)
+
+
 #: PyBullet's rows in the league: its two paths, and the multibody as PyBullet makes it (its default damping on)
 BULLET_PATHS = ("multibody", "maximal", "multibody-default")
+#: Drake's rows: its semi-explicit Euler (the benchmark's engines' kind of step) and its third-order Runge-Kutta
+DRAKE_INTEGRATORS = ("semi-explicit-euler", "rk3")
+#: The engine whose module each row function imports (a broken install is named, its rows left out)
+ROW_ENGINES = {"mujoco_rows": "mujoco", "bullet_rows": "pybullet", "dart_rows": "dart", "drake_rows": "drake"}
 
 
 def our_rows(case_name: str, method: str, steps=B.STEPS) -> list[dict]:
@@ -111,6 +127,7 @@ def league_tasks(cases=tuple(B.CASES), steps=B.STEPS) -> list[tuple]:
             + [(bullet_rows, c, path, tuple(steps)) for c in cases for path in BULLET_PATHS
                if available("pybullet")]
             + [(dart_rows, c, tuple(steps)) for c in cases if available("dart")]
+            + [(drake_rows, c, i, tuple(steps)) for c in cases for i in DRAKE_INTEGRATORS if available("drake")]
             + [(our_rows, c, m, tuple(steps)) for c in cases for m in OURS])
 
 
@@ -120,13 +137,28 @@ def run_league(steps=B.STEPS, *, pool=None, progress=None) -> list[dict]:
     rows = []
     if pool is None:
         for k, (fn, *args) in enumerate(tasks):
-            rows += fn(*args)
+            rows += _rows_of(fn, lambda: fn(*args))
             if progress:
                 progress(k + 1, len(tasks), f"{args[0]} {args[1]}")
     else:
-        futures = [pool.submit(fn, *args) for fn, *args in tasks]
-        for k, f in enumerate(futures):
-            rows += f.result()
+        futures = [(fn, pool.submit(fn, *args)) for fn, *args in tasks]
+        for k, (fn, f) in enumerate(futures):
+            rows += _rows_of(fn, f.result)
             if progress:
                 progress(k + 1, len(tasks), "")
     return rows
+
+
+def _rows_of(fn, get) -> list[dict]:
+    """``get()``'s rows, or none where the row function's engine is installed but fails to import here (named, with
+    the reason, in every versions line after: :func:`xcheck.versions.note_import_failure`)."""
+    try:
+        return get()
+    except ImportError as exc:
+        engine = ROW_ENGINES.get(fn.__name__)
+        if engine in (None, "mujoco"):
+            raise
+        from ..versions import note_import_failure
+
+        note_import_failure(engine, f"{type(exc).__name__}: {exc}")
+        return []

@@ -113,7 +113,10 @@ def live_engines_text(live) -> str:
             "it, with its angular damping of 0.04. What changed since 2015: today's Bullet lands on the published "
             "Bullet figures through its maximal path and on ODE's through its multibody: the published \"Bullet\" "
             "and \"ODE\" are these two first-order schemes. dart-semi-implicit-euler is DART's World today: it lands "
-            "on ODE's figures too, where DART's published momentum error was about 2 (200 %).")
+            "on ODE's figures too, where DART's published momentum error was about 2 (200 %). Drake was not in the "
+            "2015 benchmark: drake-semi-explicit-euler (its MultibodyPlant in continuous time) lands on ODE's "
+            "figures as well, and drake-rk3 keeps the momentum to about 1e-7 but the attitude only to about 4e-3 "
+            "rad at 1e-3 s, where MuJoCo's RK4 keeps it to 1e-10: Drake integrates the quaternion additively.")
 
 
 def markdown(rows, steps, *, version: str, versions: dict, command: str) -> str:

@@ -306,6 +306,14 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
     """Orders, checks and verdicts from the workers' results. ``quick``: the final-error and invariant
     checks, which are about the finest steps of the full study, are not applied. ``planned``: each method's
     :func:`method_steps` (what it left out is said)."""
+    broken = {}
+    for res in results:  # an engine installed but failing to import here: left out, said, and in the versions line
+        if res.import_error:
+            from ..versions import note_import_failure
+
+            broken[res.method] = f"{RUNNERS[res.method].engine} is installed but fails to import here: {res.import_error}"
+            note_import_failure(RUNNERS[res.method].engine, res.import_error)
+    results = [res for res in results if not res.import_error]
     floor = study_floor(results)
     methods, series = {}, {}
     for res in results:
@@ -334,7 +342,7 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
     else:
         checks = None
     comparisons = resolve_comparisons(scenario, [c for res in results for c in res.comparisons])
-    over_budget = {m: (left, why) for m, (_, left, why) in (planned or {}).items() if left}
+    over_budget = {m: (left, why) for m, (_, left, why) in (planned or {}).items() if left and m not in broken}
     if checks is None:
         checks = study_checks(scenario, methods, scenario.checks, quick, comparisons)
         checks = _budget_undecided(checks, over_budget)
@@ -347,8 +355,8 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
         m.verdict = verdict(m.name, checks)
     return StudyResult(scenario=scenario, steps=list(steps), methods=methods, checks=checks, order_floor=floor,
                        quick=quick, series=series, comparisons=comparisons, reference_check=reference_check,
-                       inconclusive=reasons, not_run={m: why for m, why in not_run(scenario).items()
-                                                      if m not in methods and _offered(RUNNERS[m])},
+                       inconclusive=reasons, not_run={**{m: why for m, why in not_run(scenario).items()
+                                                         if m not in methods and _offered(RUNNERS[m])}, **broken},
                        over_budget=over_budget)
 
 

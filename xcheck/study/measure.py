@@ -37,6 +37,10 @@ def run_method(scenario: Scenario, method: str, steps: tuple, partner: str | Non
         return measure_method(scenario, method, steps, partner, tolerances=tolerances, timing=timing)
     except ReferenceFailure as exc:  # building or evaluating it: nothing can be measured; the study fails, saying why
         return MethodRuns.without_reference(method, settings(scenario, RUNNERS[method], steps, tolerances), exc)
+    except ImportError as exc:  # an engine installed but broken here (a missing shared library): the study says so
+        if RUNNERS[method].engine == "xcheck":
+            raise
+        return MethodRuns(method, [], import_error=f"{type(exc).__name__}: {exc}")
 
 
 def settings(scenario: Scenario, runner, steps, tolerances=None) -> list[tuple[float, float | None]]:
