@@ -66,7 +66,8 @@ def league(*, quick: bool, steps: str | None, out: str | None, json: str | None,
     if md is not None:  # everything made first, then written together: all of it or none
         file, _, png = draw(rows, dts)
         command = "xcheck league" + (" --quick" if quick else "") + (f" --steps {steps}" if steps else "")
-        text = markdown(rows, dts, version=v["xcheck"], versions={k: v[k] for k in ("mujoco", "numpy", "scipy")},
+        engines = sorted({r["engine"] for r in rows} - {"mujoco", "xcheck"})  # the live engines' releases too
+        text = markdown(rows, dts, version=v["xcheck"], versions={k: v[k] for k in ("mujoco", *engines, "numpy", "scipy")},
                         command=f"{command} --out {md.name}")
     with signals_deferred():
         if json:
