@@ -126,7 +126,7 @@ def test_quick_report_numbers_match_the_golden_copy(quick_report):
     beyond round-off (tolerances in tests/golden.py)."""
     from golden import GOLDEN, canonical, compare
 
-    from xcheck.runners import BASILISK_METHODS, BULLET_METHODS, DART_METHODS, DRAKE_METHODS, RUNNERS
+    from xcheck.runners import BASILISK_METHODS, BULLET_METHODS, DART_METHODS, DRAKE_METHODS, EXUDYN_METHODS, RUNNERS
 
     want = json.loads(GOLDEN.read_text())
     from xcheck.engines import available
@@ -135,7 +135,7 @@ def test_quick_report_numbers_match_the_golden_copy(quick_report):
     if any(not available(e) for e in live):  # the league's live rows of an engine this machine lacks
         pytest.skip(f"the golden copy's league holds rows of {', '.join(sorted(live))}, not all available here")
     for engine, names in (("Basilisk", BASILISK_METHODS), ("PyBullet", BULLET_METHODS), ("DART", DART_METHODS),
-                          ("Drake", DRAKE_METHODS)):
+                          ("Drake", DRAKE_METHODS), ("EXUDYN", EXUDYN_METHODS)):
         if any(m in sc["methods"] and m not in RUNNERS for sc in want["scenarios"] for m in names):
             pytest.skip(f"the golden copy holds {engine}'s methods, and {engine} is not available here (not installed, "
                         "or left out by $XCHECK_WITHOUT): a report without them has other floors and cannot be "

@@ -26,7 +26,7 @@ def _state():
 
 
 @pytest.mark.parametrize("name", MODELS)
-@pytest.mark.parametrize("form, rates", [("xyzw", "world"), ("wxyz", "world"), ("dcm", "body")])
+@pytest.mark.parametrize("form, rates", [("xyzw", "world"), ("wxyz", "world"), ("dcm", "body"), ("rotvec", "world")])
 def test_world_torque_from_each_engines_state(name, form, rates):
     model = MODELS[name]
     for _ in range(5):
@@ -35,7 +35,8 @@ def test_world_torque_from_each_engines_state(name, form, rates):
         truth = rot.quat_to_dcm(q) @ model(t, q, w_body)
         qV = rot.dcm_to_quat(V)
         frame = rot.quat_mul(q, qV) if form == "xyzw" else q  # Bullet's principal frame; the others: the body
-        att = {"xyzw": np.r_[frame[1:], frame[:1]], "wxyz": frame, "dcm": rot.quat_to_dcm(frame).ravel()}[form]
+        att = {"xyzw": np.r_[frame[1:], frame[:1]], "wxyz": frame, "dcm": rot.quat_to_dcm(frame).ravel(),
+               "rotvec": rot.quat_to_rotvec(frame)}[form]
         w = rot.quat_rotate(q, w_body) if rates == "world" else w_body
         right = rot.quat_conj(qV) if form == "xyzw" else None
         for how, torque in (("compiled", model), ("interpreted", lambda t, q, w: model(t, q, w))):

@@ -26,10 +26,24 @@ def test_power_law_has_its_order(p):
 def test_round_off_floor_and_ceiling_are_dropped():
     errors = [0.5, 0.2] + [1e-4 * dt**4 for dt in DTS[2:6]] + [3e-12, 5e-12]  # pre-asymptotic, then round-off
     fit = observed_order(DTS, errors, floor=1e-12)
-    # above the ceiling (0.1): the first two; after the smallest error (3e-12 at DTS[6]): the last one
-    assert fit.used == DTS[2:7]
-    # local orders 4, 4, 4, then 0.99 into round-off: the median of the three finest is still 4
-    assert fit.order == pytest.approx(4, abs=1e-12) and fit.local_orders[-1] == pytest.approx(0.99, abs=0.01)
+    # above the ceiling (0.1): the first two; the error rose after its smallest (3e-12 at DTS[6]): the last one,
+    # and every error within ROUNDOFF_BAND (10x) of that smallest: 3e-12 itself and 6e-12 (DTS[5]), just above it
+    assert fit.used == DTS[2:5]
+    # local orders 4, 4: the pairs into round-off (4 then 0.99) are gone
+    assert fit.order == pytest.approx(4, abs=1e-12) and fit.local_orders == pytest.approx([4, 4], abs=1e-12)
+
+
+def test_errors_bent_by_a_methods_own_round_off_are_dropped():
+    """EXUDYN's RK44 on the satellite model (20 s): 1.39e-9, 8.65e-11, 1.06e-11, 2.11e-12, then 9.78e-12: its round-off
+    floor (~1e-11) is above the study's, and the errors within 10x of its smallest are bent by it (local orders 4.00,
+    3.03, 2.32). Above them, 4.00. Where the error keeps falling to the finest step, nothing more is dropped (an
+    order-2 defect keeps its evidence)."""
+    dts = [1 / 128, 1 / 256, 1 / 512, 1 / 1024, 1 / 2048]
+    fit = observed_order(dts, [1.386e-09, 8.646e-11, 1.057e-11, 2.112e-12, 9.783e-12], floor=2.2e-13)
+    assert fit.used == dts[:2] and fit.order == pytest.approx(4.00, abs=0.01)
+    defect = [1e-3 * dt**2 for dt in dts]
+    fit = observed_order(dts, defect, floor=1e-15)
+    assert fit.used == dts and fit.order == pytest.approx(2, abs=1e-12)
 
 
 def test_no_order_without_two_points():
@@ -167,3 +181,25 @@ def test_a_nan_in_a_run_is_its_largest_error_as_with_numpy():
     assert np.isnan(out["max_omega_error"]) and out["omega_error"] == 0.0 and out["max_attitude_error"] == 0.0
     with pytest.raises(ValueError, match="as many"):
         errors_against(Trajectory(t=np.arange(5.0), q=q, omega=w), q[:4], w[:4])
+
+
+def test_round_off_noise_that_dips_at_the_finest_step_is_still_round_off():
+    """EXUDYN's trapezoidal rule on the near-singular gyroscope: second order down to ~2e-12, then round-off noise
+    whose last value (1.58e-12) happens to be the smallest: a rise below 1e-8 marks round-off, and the errors within 10x
+    of the smallest go; the order is the 2.00 above them (it was -1.24)."""
+    dts = [2.0**-k for k in range(1, 13)]
+    errors = [7.60e-08, 1.02e-08, 2.03e-09, 4.95e-10, 1.23e-10, 3.08e-11, 7.68e-12, 1.92e-12, 1.75e-12, 4.15e-12,
+              2.23e-11, 1.58e-12]
+    fit = observed_order(dts, errors, floor=2.6e-14)
+    assert fit.order == pytest.approx(2.0, abs=0.02) and fit.used == dts[:6]
+
+
+def test_a_pre_asymptotic_wiggle_far_above_the_floor_is_not_round_off():
+    """MuJoCo's RK4 on the near-singular gyroscope: 2.43e-9 then 3.31e-9 at the two coarsest steps (a wiggle below 1e-8
+    but 1e5 above its lowest, 1.03e-14), then fourth order: the wiggle is kept as before (order 4.07), only the rise
+    from its lowest is round-off."""
+    dts = [2.0**-k for k in range(1, 13)]
+    errors = [2.43e-09, 3.31e-09, 1.75e-10, 1.04e-11, 6.46e-13, 6.17e-14, 4.17e-14, 1.03e-14, 1.57e-13, 6.70e-13,
+              2.75e-12, 2.30e-11]
+    fit = observed_order(dts, errors, floor=1e-12)
+    assert fit.used == dts[:4] and fit.order == pytest.approx(4.07, abs=0.01)

@@ -348,6 +348,32 @@ if available("drake"):
                     for name, (order, summary, known) in DRAKE_METHODS.items()})
 
 
+def _exudyn(integrator):
+    def run(ctx: RunContext, dt: float) -> Trajectory:
+        from .engines.exu import simulate
+
+        return simulate(ctx.inertia, integrator=integrator, q0=ctx.q0, omega0=ctx.omega0, dt=dt,
+                        duration=ctx.duration, torque=ctx.torque)
+    return run
+
+
+#: EXUDYN's methods (issue 40): its solvers at a fixed step on a Lie group rigid-body node (NodeRigidBodyRotVecLG),
+#: registered when ``exudyn`` is installed (the extra ``engines``); the torque at every stage.
+EXUDYN_METHODS = {
+    "exudyn-explicit-euler": (1, "EXUDYN's explicit Euler, Lie group update of the rotation vector"),
+    "exudyn-explicit-midpoint": (2, "EXUDYN's explicit midpoint rule, Lie group update"),
+    "exudyn-rk44": (4, "EXUDYN's classical Runge-Kutta (RK44), explicit Lie group integration"),
+    "exudyn-rk67": (6, "EXUDYN's sixth-order Runge-Kutta (RK67), explicit Lie group integration"),
+    "exudyn-generalized-alpha": (2, "EXUDYN's implicit generalized-alpha solver (Newton at every step)"),
+    "exudyn-trapezoidal-index2": (2, "EXUDYN's implicit trapezoidal rule (index 2), Newton at every step"),
+}
+if available("exudyn"):
+    RUNNERS.update({name: Runner(name, "exudyn", order, summary, _exudyn(name.removeprefix("exudyn-")),
+                                 line_style="--", cannot=_free_bodies_only("EXUDYN"),
+                                 twin="lie-rkmk4" if name == "exudyn-rk44" else None)
+                    for name, (order, summary) in EXUDYN_METHODS.items()})
+
+
 def unknown_method(name: str) -> str:
     """The message for a method name that is not a runner: an engine's that is not installed says how to get it."""
     if name in BASILISK_METHODS:

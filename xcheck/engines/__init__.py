@@ -39,6 +39,12 @@ class Engine:
     step_budget: int | None = None
     #: the same in a quick study
     quick_step_budget: int | None = None
+    #: its methods in a study run as one task, in one process: its import (0.1-0.4 s) is paid once, not by every
+    #: process that would take one of them
+    one_task: bool = False
+    #: its step budget holds under a torque only: a torque-free run is compiled end to end (EXUDYN's: 1-2.5 us a
+    #: step), where a torque is a Python call at every stage
+    budget_under_torque: bool = False
 
 
 #: The step budgets of the engines driven a step at a time (PyBullet, DART) or by Drake's Simulator (5-40 us a step,
@@ -46,6 +52,11 @@ class Engine:
 #: 0.1-0.8 s of one method's runs; a quick one its four coarsest of five (9 600 steps; three at least, the least that
 #: shows an order). Measured (speed.py): the quick report 15.2 s with them at 12 000, 16.5-18.5 at 25 000.
 _BUDGETS = {"step_budget": 25_000, "quick_step_budget": 12_000}
+#: Drake's Simulator costs twice Bullet's and DART's step (5-12 us torque free, 15-35 with a torque at every stage)
+_DRAKE_BUDGETS = {"step_budget": 12_000, "quick_step_budget": 6_000}
+#: EXUDYN's six solvers, 19 us a stage each under a torque: a 10 s study keeps its steps down to 1/256 s (5 100 steps);
+#: torque free, every step (1-2.5 us a step, as MuJoCo's)
+_EXUDYN_BUDGETS = {"step_budget": 8_000, "quick_step_budget": 4_000}
 
 ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco", "mujoco", warm=("xcheck.engines.mujoco",),
                             magnetometer=("magnetometer_readings", "MuJoCo's <magnetometer> sensor (uniform field, "
@@ -56,11 +67,16 @@ ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco", "mujoco
            # PyBullet, DART and Drake: microseconds a step where ours take a tenth of one (a Python call a step; Drake's
            # Simulator): a step budget a method and study, their runs to the workers first (the longest tasks first)
            "pybullet": Engine("pybullet", "pybullet", "xcheck.engines.bullet", "pybullet",
-                              warm=("xcheck.engines.bullet",), extra="engines", to_workers=True, **_BUDGETS),
+                              warm=("xcheck.engines.bullet",), extra="engines", to_workers=True, one_task=True, **_BUDGETS),
            "dart": Engine("dart", "dartpy", "xcheck.engines.dart", "dartpy", warm=("xcheck.engines.dart",),
-                          extra="engines", to_workers=True, **_BUDGETS),
+                          extra="engines", to_workers=True, one_task=True, **_BUDGETS),
+           # EXUDYN: a C++ run of 1-2.5 us a step torque free, but a Python call at every stage under a torque (its
+           # load's user function, 19 us a stage: 75 us a step of RK44, 170 of RK67)
+           "exudyn": Engine("exudyn", "exudyn", "xcheck.engines.exu", "exudyn", warm=("xcheck.engines.exu",),
+                            extra="engines", to_workers=True, one_task=True, budget_under_torque=True,
+                            **_EXUDYN_BUDGETS),
            "drake": Engine("drake", "drake", "xcheck.engines.drake", "pydrake", warm=("xcheck.engines.drake",),
-                           extra="engines", to_workers=True, **_BUDGETS)}
+                           extra="engines", to_workers=True, one_task=True, **_DRAKE_BUDGETS)}
 
 
 #: An optional engine is left out, although installed, when ``$XCHECK_WITHOUT`` names it (comma-separated):

@@ -4,10 +4,13 @@ by DART's own integrator, semi-implicit Euler (the velocity first, then the posi
 Conventions at this boundary (tested both ways, and against DART's own reading of the body): the joint's positions
 are ``FreeJoint.convertToPositions`` of the body's transform, whose rotation is our ``R`` (body -> world); its
 velocities, as ``dartpy`` 6.20 reads them, are the angular velocity in world components then the linear one: the
-rate enters as ``R w``, and is read back as ``getAngularVelocity(World, body)``, body components. The inertia is the
+rate enters as ``R w``. A run reads the joint's state as it is at every step, ``getPositions()`` (the rotation vector
+of ``R``, then the translation) and ``getVelocities()`` (0.9 us a step, where the body's transform and rate cost 6.5),
+and converts the rows at the end (:func:`from_dart_state`; the same attitudes as DART's own transforms to 1e-15). The inertia is the
 body-frame tensor, products included (``Inertia``).
 
-The torque is set with ``setExtTorque`` in world components before each step, which DART clears after it: evaluated
+The torque is set with ``setExtTorque`` in world components before each step (from the joint's state, compiled:
+:func:`xcheck.engines.held_input.engine_torque`), which DART clears after it: evaluated
 at the step's start and held over it (first order, as the step itself).
 """
 
@@ -21,7 +24,7 @@ from .. import rotations as rot
 from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
 from .held_input import engine_torque
 
-__all__ = ["simulate", "free_flight", "to_dart", "from_dart"]
+__all__ = ["simulate", "free_flight", "to_dart", "from_dart", "from_dart_state"]
 
 
 @functools.lru_cache(maxsize=1)
@@ -40,6 +43,13 @@ def to_dart(q, omega) -> tuple[np.ndarray, np.ndarray]:
 def from_dart(R, omega_body) -> tuple[np.ndarray, np.ndarray]:
     """DART's body rotation ``R`` (body -> world) and body-frame rate -> our ``(q, omega)``."""
     return rot.dcm_to_quat(np.asarray(R, dtype=float)), np.asarray(omega_body, dtype=float)
+
+
+def from_dart_state(positions, velocities) -> tuple[np.ndarray, np.ndarray]:
+    """A FreeJoint's positions ``[rotation vector of R, translation]`` and velocities ``[R w, v]`` rows -> our
+    ``(q, omega)`` (body rate)."""
+    q = rot.rotvec_to_quat(np.asarray(positions, dtype=float)[..., 0:3])
+    return q, rot.quat_rotate(rot.quat_conj(q), np.asarray(velocities, dtype=float)[..., 0:3])
 
 
 def _world(dart, dt: float, gravity, inertia, mass: float = 1.0):
@@ -88,21 +98,20 @@ def simulate(inertia, *, q0, omega0, dt: float, duration: float, torque=None) ->
     pose.set_rotation(R0)
     skeleton.setPositions(dart.dynamics.FreeJoint.convertToPositions(pose))
     skeleton.setVelocities(np.concatenate([w_world, np.zeros(3)]))
-    world_frame = dart.dynamics.Frame.World()
-    Rs = np.empty((n + 1, 3, 3))
-    ws = np.empty((n + 1, 3))
-    Rs[0], ws[0] = body.getWorldTransform().rotation(), body.getAngularVelocity(world_frame, body)
+    positions = np.empty((n + 1, 6))  # the FreeJoint's state, read as it is (0.9 us a step; its transform and body
+    velocities = np.empty((n + 1, 6))  # rate, 6.5 us): [rotation vector, translation], [R w, v]
+    positions[0], velocities[0] = skeleton.getPositions(), skeleton.getVelocities()
     t = np.arange(n + 1) * float(dt)
     t[-1] = float(duration)
-    world_torque = None if torque is None else engine_torque(torque, form="dcm", rates="body")
+    world_torque = None if torque is None else engine_torque(torque, form="rotvec", rates="world")
     for k in range(n):
         if k == n - 1 and last_h != dt:
             world.setTimeStep(last_h)
         if world_torque is not None:
-            body.setExtTorque(world_torque(t[k], Rs[k], ws[k]), False)
+            body.setExtTorque(world_torque(t[k], positions[k, 0:3], velocities[k, 0:3]), False)
         world.step()
-        Rs[k + 1], ws[k + 1] = body.getWorldTransform().rotation(), body.getAngularVelocity(world_frame, body)
-    q, omega = from_dart(Rs, ws)
+        positions[k + 1], velocities[k + 1] = skeleton.getPositions(), skeleton.getVelocities()
+    q, omega = from_dart_state(positions, velocities)
     method = "dart-semi-implicit-euler"
     bad = ~(np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(omega), axis=1))
     k = int(np.argmax(bad)) if bad.any() else len(t)

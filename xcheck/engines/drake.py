@@ -151,13 +151,15 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
     times, data = _run(inertia, mass=1.0, integrator=integrator, dt=dt, duration=duration, gravity=np.zeros(3),
                        torque=torque, state0=np.concatenate([attitude[0:4], np.zeros(3), attitude[4:7], np.zeros(3)]))
     evaluations = INTEGRATORS[integrator][2]
-    q, omega = from_drake(np.concatenate([data[:, 0:4], data[:, 7:10]], axis=1))
-    method = f"drake-{integrator}"
-    extras = {"evaluations": evaluations * n, "norm": np.linalg.norm(data[:, 0:4], axis=1),
-              "torque_input": "at every stage" if torque is not None else None}
-    bad = ~(np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(omega), axis=1))
+    with np.errstate(over="ignore", invalid="ignore"):  # a run that blew up: its rows up to the first bad one
+        norm = np.linalg.norm(data[:, 0:4], axis=1)
+        bad = ~(np.all(np.isfinite(data[:, 0:10]), axis=1) & np.isfinite(norm) & (norm > 0))
     k = int(np.argmax(bad)) if bad.any() else len(times)
-    traj = Trajectory(t=times[:k], q=continuous_quaternions(q[:k]) if k else np.empty((0, 4)), omega=omega[:k],
+    q, omega = from_drake(np.concatenate([data[:k, 0:4], data[:k, 7:10]], axis=1))
+    method = f"drake-{integrator}"
+    extras = {"evaluations": evaluations * n, "norm": norm[:k],
+              "torque_input": "at every stage" if torque is not None else None}
+    traj = Trajectory(t=times[:k], q=continuous_quaternions(q) if k else np.empty((0, 4)), omega=omega,
                       method=method, dt=float(dt), extras=extras)
     if k < len(times):
         traj.status, traj.message = "failed", f"{method}: the state became non-finite at t = {times[k]:.6g} s"

@@ -47,9 +47,9 @@ def write_row(ptrs, nanos):
 # The torque an engine applies in world components, from the engine's own state (PyBullet, DART, Drake)
 # ------------------------------------------------------------------------------------------------------------------
 #: How an engine gives its attitude (:func:`world_torque`'s ``form``): a quaternion scalar first (Drake's), scalar
-#: last (Bullet's), or a row-major rotation matrix, body -> world (DART's).
-WXYZ, XYZW, DCM = 0, 1, 2
-_FORMS = {"wxyz": WXYZ, "xyzw": XYZW, "dcm": DCM}
+#: last (Bullet's), a row-major rotation matrix, or a rotation vector (DART's FreeJoint positions), body -> world.
+WXYZ, XYZW, DCM, ROTVEC = 0, 1, 2, 3
+_FORMS = {"wxyz": WXYZ, "xyzw": XYZW, "dcm": DCM, "rotvec": ROTVEC}
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -72,6 +72,11 @@ def world_torque(kind, P, T, t, att, form, right, w, rates_world, out):
             a[0], a[1], a[2], a[3] = att[3] - att[1], att[2] + att[6], att[5] + att[7], 1.0 + 2.0 * att[8] - tr
     elif form == XYZW:
         a[0], a[1], a[2], a[3] = att[3], att[0], att[1], att[2]
+    elif form == ROTVEC:  # exp of the rotation vector (xcheck.rotations.rotvec_to_quat)
+        angle = np.sqrt(att[0] * att[0] + att[1] * att[1] + att[2] * att[2])
+        half = 0.5 * angle
+        s = 0.5 - angle * angle / 48.0 if angle < 1e-4 else np.sin(half) / angle  # sin(angle/2) / angle
+        a[0], a[1], a[2], a[3] = np.cos(half), s * att[0], s * att[1], s * att[2]
     else:
         a[0], a[1], a[2], a[3] = att[0], att[1], att[2], att[3]
     q = np.empty(4)  # a ⊗ right, normalised
@@ -97,7 +102,7 @@ def world_torque(kind, P, T, t, att, form, right, w, rates_world, out):
 def engine_torque(torque, *, form: str, right=None, rates: str):
     """``f(t, att, w) -> (3,)``: ``torque`` (a :class:`~xcheck.fields.TorqueModel`, or any ``(t, q, omega) -> (3,)``
     of body components) as an engine applies it, in world components, from the engine's attitude ``att`` (``form``:
-    "wxyz", "xyzw" or "dcm") of a frame ``right`` off the body (see :func:`world_torque`) and its rate ``w``
+    "wxyz", "xyzw", "dcm" or "rotvec") of a frame ``right`` off the body (see :func:`world_torque`) and its rate ``w``
     (``rates``: "world" or "body" components), both float arrays. A torque model is evaluated compiled; another
     callable through :mod:`xcheck.rotations` (the same numbers to round-off)."""
     from .. import rotations as rot
@@ -118,7 +123,7 @@ def engine_torque(torque, *, form: str, right=None, rates: str):
 
     def interpreted(t, att, w):
         att = np.asarray(att, dtype=float)
-        a = (rot.dcm_to_quat(att.reshape(3, 3)) if code == DCM else
+        a = (rot.dcm_to_quat(att.reshape(3, 3)) if code == DCM else rot.rotvec_to_quat(att) if code == ROTVEC else
              np.concatenate([att[3:], att[:3]]) if code == XYZW else att)
         q = rot.quat_mul(a, right)
         q = q / np.linalg.norm(q)

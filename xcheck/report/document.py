@@ -134,7 +134,7 @@ figure{margin:1em 0}figure img{max-width:100%}figcaption{font-size:.85em;color:#
 .chip{display:inline-block;width:.9em;height:.9em;border:1px solid #bbb;vertical-align:middle;margin:0 .15em}
 .chip.pass{background:#dff5e1}.chip.fail{background:#fbdada}.chip.expected{background:#fff0c8}.chip.info{background:#eef}
 .chip.inconclusive{background:#e6e0f5}
-.scroll{overflow-x:auto;max-width:100%}.scroll table{margin:.5em 0}table.compact{font-size:.8em}table.compact td{white-space:nowrap;padding:.1em .35em}
+.scroll{overflow-x:auto;max-width:100%}.scroll table{margin:.5em 0}table.compact{font-size:.74em;line-height:1.2}table.compact td{white-space:nowrap;padding:0 .35em}
 details{margin:1em 0}summary{cursor:pointer;font-size:.9em}
 nav.contents ul{columns:3;list-style:none;padding-left:0;font-size:.9em}nav.contents li{margin:.1em 0}
 """

@@ -181,7 +181,7 @@ def report_document(studies, results: dict, figures: dict, *, extra=(), summary:
     blocks = [Heading(1, "xcheck cross-check report"),
               Verdict(*VERDICTS[outcome]),
               *([Para([(summary, "b")])] if summary else []),
-              Para(LEGEND)]
+              Para(LEGEND, small=True)]
     methods = []
     for st in studies:
         methods += [m for m in st.methods if m not in methods]

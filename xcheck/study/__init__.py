@@ -28,7 +28,7 @@ from ..versions import versions
 from .checks import adaptive_note, planned_checks, qualify, study_checks, study_floor, verdict
 from .executor import map_tasks, prefer_here
 from .files import score_trajectories
-from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_method
+from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_methods
 
 __all__ = ["run_study", "run_studies", "assemble", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows",
            "planned_checks", "default_methods", "not_run", "comparison_partner", "method_steps",
@@ -140,14 +140,15 @@ def not_run(scenario: Scenario) -> dict:
 def method_steps(scenario: Scenario, method: str, steps, *, quick: bool = False) -> tuple[tuple, tuple, str]:
     """``(steps run, steps left out, why)`` of ``method`` in a study at ``steps`` (coarse to fine): every step, but for
     an engine with a step budget (:attr:`xcheck.engines.Engine.step_budget`, ``quick_step_budget`` in a ``quick``
-    study) only the coarsest whose steps add up to it at most, three at least (an order needs them)."""
+    study; under a torque only, for an engine whose torque-free runs are compiled end to end) only the coarsest whose
+    steps add up to it at most, three at least (an order needs them)."""
     from ..engines import ENGINES
     from ..trajectory import step_plan
 
     steps = tuple(steps)
     engine = ENGINES.get(RUNNERS[method].engine)
-    budget = None if engine is None or RUNNERS[method].adaptive else \
-        engine.quick_step_budget if quick else engine.step_budget
+    budget = None if engine is None or RUNNERS[method].adaptive or (engine.budget_under_torque and not scenario.torque) \
+        else engine.quick_step_budget if quick else engine.step_budget
     if budget is None:
         return steps, (), ""
     kept, total = [], 0
@@ -224,11 +225,31 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     # the engines' step budgets hold for the scenario's steps, not for steps asked for by name
     planned = {m: (tuple(steps), (), "") if steps_given else method_steps(scenario, m, steps, quick=quick)
                for m in methods}
-    tasks = [(scenario, m, planned[m][0], comparison_partner(scenario, m, methods), tolerances, timing) for m in methods]
-    results = map_tasks(run_method, tasks, workers=workers, progress=progress, pool=pool,
-                   labels=[f"{scenario.name}: {m}" for m in methods], here=prefer_here if here else None)
-    return score_trajectories(about_the_model(assemble(scenario, steps, results, quick=quick and not steps_given,
-                                                       planned=planned), quick))
+    tasks = study_tasks(scenario, methods, planned, tolerances, timing)
+    done = map_tasks(run_methods, tasks, workers=workers, progress=progress, pool=pool,
+                     labels=[_label(task) for task in tasks], here=prefer_here if here else None)
+    by_method = {r.method: r for task_runs in done for r in task_runs}
+    return score_trajectories(about_the_model(assemble(scenario, steps, [by_method[m] for m in methods],
+                                                       quick=quick and not steps_given, planned=planned), quick))
+
+
+def study_tasks(scenario: Scenario, methods, planned: dict, tolerances, timing: bool = True) -> list[tuple]:
+    """The tasks of a study (:func:`~xcheck.study.measure.run_methods`'s arguments): one a method, but one for all the
+    methods of an engine that runs them as one (:attr:`xcheck.engines.Engine.one_task`: its import paid once, in one
+    process)."""
+    from ..engines import ENGINES
+
+    groups: dict = {}
+    for m in methods:
+        engine = ENGINES.get(RUNNERS[m].engine)
+        groups.setdefault(engine.name if engine is not None and engine.one_task else m, []).append(m)
+    return [(scenario, tuple(ms), tuple(planned[m][0] for m in ms),
+             tuple(comparison_partner(scenario, m, methods) for m in ms), tolerances, timing)
+            for ms in groups.values()]
+
+
+def _label(task) -> str:
+    return f"{task[0].name}: {', '.join(task[1])}"
 
 
 def about_the_model(st: StudyResult, quick: bool = False) -> StudyResult:
@@ -261,28 +282,27 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
         methods = default_methods(sc)
         steps = sorted((float(s) for s in (sc.quick_steps if quick else sc.steps)), reverse=True)
         plans.append((sc, methods, steps, {m: method_steps(sc, m, steps, quick=quick) for m in methods}))
-    tasks = [(sc, m, planned[m][0], comparison_partner(sc, m, methods), sc.quick_tolerances if quick else sc.tolerances)
-             for sc, methods, _, planned in plans for m in methods]
-    labels = [f"{sc.name}: {m}" for sc, methods, _, _ in plans for m in methods]
-    owner = [k for k, (_, methods, _, _) in enumerate(plans) for _ in methods]
-    first = np.cumsum([0] + [len(methods) for _, methods, _, _ in plans])
-    missing = [len(methods) for _, methods, _, _ in plans]
+    per_study = [study_tasks(sc, methods, planned, sc.quick_tolerances if quick else sc.tolerances)
+                 for sc, methods, _, planned in plans]
+    tasks = [task for ts in per_study for task in ts]
+    owner = [k for k, ts in enumerate(per_study) for _ in ts]
+    missing = [len(ts) for ts in per_study]
     studies: list = [None] * len(plans)
-    results: list = [None] * len(tasks)
+    results: list = [{} for _ in plans]  # per study: method -> MethodRuns
 
-    def done(i, result):
-        results[i] = result
+    def done(i, task_runs):
         k = owner[i]
+        results[k].update((r.method, r) for r in task_runs)
         missing[k] -= 1
         if missing[k] == 0:
-            sc, _, steps, planned = plans[k]
-            studies[k] = score_trajectories(about_the_model(assemble(sc, steps, results[first[k]:first[k + 1]],
+            sc, methods, steps, planned = plans[k]
+            studies[k] = score_trajectories(about_the_model(assemble(sc, steps, [results[k][m] for m in methods],
                                                                      quick=quick, planned=planned), quick))
             if on_study:
                 on_study(studies[k])
 
-    map_tasks(run_method, tasks, workers=workers, progress=progress, pool=pool, labels=labels, on_result=done,
-              here=prefer_here if here else None, idle=idle)
+    map_tasks(run_methods, tasks, workers=workers, progress=progress, pool=pool, labels=[_label(t) for t in tasks],
+              on_result=done, here=prefer_here if here else None, idle=idle)
     return studies
 
 

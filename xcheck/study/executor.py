@@ -19,7 +19,7 @@ COLD_WORKER_TASKS = 12
 def prefer_here(task) -> bool:
     """The tasks this process takes first when it works beside a pool: not those of an engine whose import
     is costly (:attr:`xcheck.engines.Engine.to_workers`: the workers import it as they start)."""
-    engine = ENGINES.get(RUNNERS[task[1]].engine)  # None: ours
+    engine = ENGINES.get(RUNNERS[task[1][0]].engine)  # None: ours (a task's methods are of one engine)
     return engine is None or not engine.to_workers
 
 

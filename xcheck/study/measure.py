@@ -19,11 +19,18 @@ from ..scenario import Scenario
 from ..trajectory import step_plan
 from .context import run_context, scenario_key, scenario_reference
 
-__all__ = ["run_method", "measure_method", "measure_run", "timed_run", "settings", "PLOT_SAMPLE_DT"]
+__all__ = ["run_methods", "run_method", "measure_method", "measure_run", "timed_run", "settings", "PLOT_SAMPLE_DT"]
 
 #: Series kept for plots and CSV are sampled at this spacing [s] (or every step, if coarser).
 PLOT_SAMPLE_DT = 1 / 256
 _PARTNER_RUNS: dict = {}  # (scenario key, partner, dt) -> Trajectory | None (see _difference)
+
+
+def run_methods(scenario: Scenario, methods: tuple, steps: tuple, partners: tuple, tolerances: tuple | None = None,
+                timing: bool = True) -> list[MethodRuns]:
+    """One task of a study (in a worker): :func:`run_method` for each of ``methods``, its ``steps`` and ``partner``
+    the same place in ``steps`` and ``partners`` (one method; or every method of an engine that runs as one task)."""
+    return [run_method(scenario, m, st, partner, tolerances, timing) for m, st, partner in zip(methods, steps, partners)]
 
 
 def run_method(scenario: Scenario, method: str, steps: tuple, partner: str | None = None,

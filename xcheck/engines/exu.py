@@ -1,0 +1,124 @@
+"""EXUDYN (PyPI ``exudyn``) as an engine (issue 40): one rigid body on a ``NodeRigidBodyRotVecLG`` (a rotation vector
+updated by Lie group methods: Holzinger and Gerstmayr's formulation, the literature the seed 004 method comes from),
+run by EXUDYN's own solvers at a fixed step (:data:`INTEGRATORS`): its explicit Lie group Runge-Kutta methods
+(``timeIntegration.explicitIntegration.useLieGroupIntegration``) and its implicit generalized-alpha and trapezoidal
+(index-2) solvers. The whole run is one C++ call; sensors stored in memory give the state at every step.
+
+Conventions at this boundary (tested both ways): the node's rotation coordinates are the rotation vector of our
+``R`` (body -> world: its ``RotationMatrix`` output maps local to global), entered as the reference coordinates; its
+rotation velocity coordinates are the body-frame angular velocity (the Lie group node's ``G`` is the identity), our
+``omega`` as it is; it reads back ``RotationMatrix`` (row-major) and ``AngularVelocityLocal``. The inertia is the
+body-frame tensor, products included (``inertia = [Ixx, Iyy, Izz, Iyz, Ixz, Ixy]``); EXUDYN applies no gravity
+unless given a load.
+
+The torque is a ``LoadTorqueVector`` with a user function EXUDYN calls at every stage (and every Newton iteration of
+an implicit solver), in world components from the stage's state (compiled:
+:func:`xcheck.engines.held_input.engine_torque`): the explicit methods keep their orders under an attitude-dependent
+torque. Its Python call a stage is the run's cost then (tens of microseconds a stage, where a torque-free step is 1-2).
+"""
+
+from __future__ import annotations
+
+import functools
+import warnings
+
+import numpy as np
+
+from .. import rotations as rot
+from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
+from .held_input import engine_torque
+
+__all__ = ["simulate", "INTEGRATORS", "to_exudyn", "from_exudyn"]
+
+#: Our names -> (EXUDYN's DynamicSolverType, order, right-hand-side evaluations a step (None: iterated)).
+INTEGRATORS = {"explicit-euler": ("ExplicitEuler", 1, 1), "explicit-midpoint": ("ExplicitMidpoint", 2, 2),
+               "rk44": ("RK44", 4, 4), "rk67": ("RK67", 6, 9), "generalized-alpha": ("GeneralizedAlpha", 2, None),
+               "trapezoidal-index2": ("TrapezoidalIndex2", 2, None)}
+
+
+@functools.lru_cache(maxsize=1)
+def _exudyn():
+    """EXUDYN and its item interface, imported once."""
+    import exudyn
+    from exudyn import itemInterface
+
+    return exudyn, itemInterface
+
+
+def to_exudyn(q, omega) -> tuple[np.ndarray, np.ndarray]:
+    """Our ``(q, omega)`` -> the node's ``(rotation vector of R, rotation velocities = body rate)``."""
+    return rot.quat_to_rotvec(np.asarray(q, dtype=float)), np.asarray(omega, dtype=float)
+
+
+def from_exudyn(R_rows, omega_local) -> tuple[np.ndarray, np.ndarray]:
+    """EXUDYN's ``RotationMatrix`` rows (9, row-major, body -> world) and ``AngularVelocityLocal`` -> ``(q, omega)``."""
+    R = np.asarray(R_rows, dtype=float).reshape(-1, 3, 3)
+    return rot.dcm_to_quat(R), np.asarray(omega_local, dtype=float).reshape(-1, 3)
+
+
+def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float, torque=None) -> Trajectory:
+    """Run EXUDYN's ``integrator`` (:data:`INTEGRATORS`) at the fixed step ``dt`` on a free body of ``inertia`` (3, 3)
+    [kg m^2] from ``(q0, omega0)`` (ours) for ``duration`` s; ``torque`` None or ``(t, q, omega) -> (3,)`` [N m] in
+    body components, evaluated at every stage."""
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator: unknown {integrator!r}; expected one of {', '.join(INTEGRATORS)}")
+    q0, omega0 = check_initial_state(q0, omega0)
+    n, last_h = step_plan(float(dt), float(duration))
+    if abs(last_h - dt) > 1e-9 * dt:
+        raise ValueError(f"dt: {dt:g} s does not divide the duration {duration:g} s (EXUDYN takes equal steps)")
+    exu, items = _exudyn()
+    I = np.asarray(inertia, dtype=float)
+    mbs = exu.SystemContainer().AddSystem()
+    rv0, w0 = to_exudyn(q0, omega0)
+    node = mbs.AddNode(items.NodeRigidBodyRotVecLG(referenceCoordinates=[0.0, 0.0, 0.0, *map(float, rv0)],
+                                                   initialVelocities=[0.0, 0.0, 0.0, *map(float, w0)]))
+    mbs.AddObject(items.ObjectRigidBody(mass=1.0, nodeNumber=node, inertia=[
+        I[0, 0], I[1, 1], I[2, 2], I[1, 2], I[0, 2], I[0, 1]]))
+    if torque is not None:
+        world_torque = engine_torque(torque, form="dcm", rates="body")
+        current = exu.ConfigurationType.Current
+        R_out, w_out = exu.OutputVariableType.RotationMatrix, exu.OutputVariableType.AngularVelocityLocal
+
+        def load(mbs_, t, _):  # the stage's state, as the solver evaluates it
+            R = np.asarray(mbs_.GetNodeOutput(node, R_out, configuration=current), dtype=float)
+            w = np.asarray(mbs_.GetNodeOutput(node, w_out, configuration=current), dtype=float)
+            return world_torque(t, R, w).tolist()
+        marker = mbs.AddMarker(items.MarkerNodeRigid(nodeNumber=node))
+        mbs.AddLoad(items.LoadTorqueVector(markerNumber=marker, loadVector=[0.0, 0.0, 0.0], bodyFixed=False,
+                                           loadVectorUserFunction=load))
+    sensors = [mbs.AddSensor(items.SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=kind))
+               for kind in (exu.OutputVariableType.RotationMatrix, exu.OutputVariableType.AngularVelocityLocal)]
+    mbs.Assemble()
+    settings = exu.SimulationSettings()
+    with warnings.catch_warnings():  # 1.13 warns on the settings' older names, which it still reads
+        warnings.simplefilter("ignore", DeprecationWarning)
+        settings.timeIntegration.numberOfSteps = n
+        settings.timeIntegration.endTime = float(duration)
+        settings.timeIntegration.verboseMode = 0
+        settings.timeIntegration.explicitIntegration.useLieGroupIntegration = True
+        settings.solutionSettings.writeSolutionToFile = False
+        settings.solutionSettings.sensorsWritePeriod = float(dt)
+        settings.displayComputationTime = False
+        settings.displayStatistics = False
+    name, _, evaluations = INTEGRATORS[integrator]
+    method = f"exudyn-{integrator}"
+    try:
+        exu.SolveDynamic(mbs, simulationSettings=settings, solverType=getattr(exu.DynamicSolverType, name))
+    except Exception as exc:  # EXUDYN raises its own errors for a solver that does not converge
+        return Trajectory(t=np.zeros(0), q=np.empty((0, 4)), omega=np.empty((0, 3)), method=method, dt=float(dt),
+                          status="failed", message=f"{method}: EXUDYN's solver failed: {exc}")
+    R_data, w_data = (np.asarray(mbs.GetSensorStoredData(s), dtype=float) for s in sensors)
+    t = R_data[:, 0]
+    with np.errstate(invalid="ignore"):
+        good = np.all(np.isfinite(R_data), axis=1) & np.all(np.isfinite(w_data), axis=1)
+    k = int(np.argmin(good)) if not good.all() else len(t)
+    q, omega = from_exudyn(R_data[:k, 1:], w_data[:k, 1:])
+    traj = Trajectory(t=t[:k], q=continuous_quaternions(q) if k else np.empty((0, 4)), omega=omega, method=method,
+                      dt=float(dt), extras={"evaluations": None if evaluations is None else evaluations * n,
+                                            "torque_input": "at every stage" if torque is not None else None})
+    if k < len(t):
+        traj.status, traj.message = "failed", f"{method}: the state became non-finite at t = {t[k]:.6g} s"
+    elif k != n + 1 or abs(t[-1] - duration) > 1e-9 * max(duration, 1.0):
+        traj.status, traj.message = "failed", (f"{method}: EXUDYN stored {k} samples to t = {t[-1]:.6g} s, expected "
+                                               f"{n + 1} to {duration:g} s")
+    return traj
