@@ -322,12 +322,15 @@ if available("dart"):
                     for name, summary in DART_METHODS.items()})
 
 
-def _drake(integrator):
+def _integrator_of(module: str, integrator: str):
+    """A runner's ``run`` for an engine module whose ``simulate`` takes the integrator by name (Drake's, EXUDYN's):
+    the free body, its state and torque from the context."""
     def run(ctx: RunContext, dt: float) -> Trajectory:
-        from .engines.drake import simulate
+        import importlib
 
-        return simulate(ctx.inertia, integrator=integrator, q0=ctx.q0, omega0=ctx.omega0, dt=dt,
-                        duration=ctx.duration, torque=ctx.torque)
+        return importlib.import_module(module).simulate(ctx.inertia, integrator=integrator, q0=ctx.q0,
+                                                        omega0=ctx.omega0, dt=dt, duration=ctx.duration,
+                                                        torque=ctx.torque)
     return run
 
 
@@ -343,18 +346,10 @@ DRAKE_METHODS = {
     "drake-rk3": (3, "Drake's third-order Runge-Kutta on a continuous MultibodyPlant", ()),
 }
 if available("drake"):
-    RUNNERS.update({name: Runner(name, "drake", order, summary, _drake(name.removeprefix("drake-")), line_style=":",
+    RUNNERS.update({name: Runner(name, "drake", order, summary,
+                                 _integrator_of("xcheck.engines.drake", name.removeprefix("drake-")), line_style=":",
                                  cannot=_free_bodies_only("Drake"), known=known)
                     for name, (order, summary, known) in DRAKE_METHODS.items()})
-
-
-def _exudyn(integrator):
-    def run(ctx: RunContext, dt: float) -> Trajectory:
-        from .engines.exu import simulate
-
-        return simulate(ctx.inertia, integrator=integrator, q0=ctx.q0, omega0=ctx.omega0, dt=dt,
-                        duration=ctx.duration, torque=ctx.torque)
-    return run
 
 
 #: EXUDYN's methods (issue 40): its solvers at a fixed step on a Lie group rigid-body node (NodeRigidBodyRotVecLG),
@@ -368,8 +363,8 @@ EXUDYN_METHODS = {
     "exudyn-trapezoidal-index2": (2, "EXUDYN's implicit trapezoidal rule (index 2), Newton at every step"),
 }
 if available("exudyn"):
-    RUNNERS.update({name: Runner(name, "exudyn", order, summary, _exudyn(name.removeprefix("exudyn-")),
-                                 line_style="--", cannot=_free_bodies_only("EXUDYN"),
+    RUNNERS.update({name: Runner(name, "exudyn", order, summary,
+                                 _integrator_of("xcheck.engines.exu", name.removeprefix("exudyn-")), line_style="--", cannot=_free_bodies_only("EXUDYN"),
                                  twin="lie-rkmk4" if name == "exudyn-rk44" else None)
                     for name, (order, summary) in EXUDYN_METHODS.items()})
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "step_label", "time_grid", "check_step",
+__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "equal_steps", "step_label", "time_grid", "check_step",
            "check_initial_state", "tolerances_at", "available_memory"]
 
 #: Relative tolerance for treating ``duration / dt`` as an integer number of steps.
@@ -94,6 +94,15 @@ def step_plan(dt, duration) -> tuple[int, float]:
     if n > MAX_STEPS:
         raise ValueError(f"dt: {n} steps of {dt:g} s over {duration:g} s exceeds the limit of {MAX_STEPS}")
     return n, duration - (n - 1) * dt
+
+
+def equal_steps(dt, duration, why: str) -> int:
+    """The number of equal steps ``dt`` that make ``duration``, for an engine that cannot shorten its last step
+    (``why``, said when ``dt`` does not divide ``duration``: "Drake's log is periodic")."""
+    n, last_h = step_plan(dt, duration)
+    if abs(last_h - float(dt)) > 1e-9 * float(dt):
+        raise ValueError(f"dt: {float(dt):g} s does not divide the duration {float(duration):g} s ({why})")
+    return n
 
 
 def check_initial_state(q0, omega0, *, batch: bool = False) -> tuple[np.ndarray, np.ndarray]:

@@ -22,7 +22,7 @@ import functools
 import numpy as np
 
 from .. import rotations as rot
-from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
+from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, equal_steps
 from .held_input import engine_torque
 
 __all__ = ["simulate", "free_flight", "INTEGRATORS", "to_drake", "from_drake"]
@@ -144,9 +144,7 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
     if integrator not in INTEGRATORS:
         raise ValueError(f"integrator: unknown {integrator!r}; expected one of {', '.join(INTEGRATORS)}")
     q0, omega0 = check_initial_state(q0, omega0)
-    n, last_h = step_plan(float(dt), float(duration))
-    if abs(last_h - dt) > 1e-9 * dt:
-        raise ValueError(f"dt: {dt:g} s does not divide the duration {duration:g} s (Drake's log is periodic)")
+    n = equal_steps(dt, duration, "Drake's log is periodic")
     attitude = to_drake(q0, omega0)
     times, data = _run(inertia, mass=1.0, integrator=integrator, dt=dt, duration=duration, gravity=np.zeros(3),
                        torque=torque, state0=np.concatenate([attitude[0:4], np.zeros(3), attitude[4:7], np.zeros(3)]))

@@ -25,7 +25,7 @@ import warnings
 import numpy as np
 
 from .. import rotations as rot
-from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
+from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, equal_steps
 from .held_input import engine_torque
 
 __all__ = ["simulate", "INTEGRATORS", "to_exudyn", "from_exudyn"]
@@ -63,9 +63,7 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
     if integrator not in INTEGRATORS:
         raise ValueError(f"integrator: unknown {integrator!r}; expected one of {', '.join(INTEGRATORS)}")
     q0, omega0 = check_initial_state(q0, omega0)
-    n, last_h = step_plan(float(dt), float(duration))
-    if abs(last_h - dt) > 1e-9 * dt:
-        raise ValueError(f"dt: {dt:g} s does not divide the duration {duration:g} s (EXUDYN takes equal steps)")
+    n = equal_steps(dt, duration, "EXUDYN takes equal steps")
     exu, items = _exudyn()
     I = np.asarray(inertia, dtype=float)
     mbs = exu.SystemContainer().AddSystem()
