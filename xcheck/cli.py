@@ -40,6 +40,12 @@ EXIT_INCONCLUSIVE = 4
 EXIT_OF = {"PASSED": EXIT_OK, "FAILED": EXIT_CHECK_FAILED, "INCONCLUSIVE": EXIT_INCONCLUSIVE}
 
 
+#: ``--with``: the opt-in engines (the others run wherever they are installed)
+WITH_HELP = ("opt-in engines' methods too, comma-separated: mjx (MJX's RK4, Euler and implicitfast, float32 and x64; "
+             "pip install 'xcheck[mjx]'); PyBullet, DART, Drake and EXUDYN run wherever they are installed (pip "
+             "install 'xcheck[engines]')")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="xcheck", description="MuJoCo-validated rigid-body attitude cross-checker")
     parser.add_argument("--version", action="version", version=f"xcheck {__version__}")
@@ -85,9 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--trajectories", action="store_true",
                    help="also write every method's finest run as CSV (trajectories/, ~4 MB a scenario)")
     p.add_argument("--with", dest="with_engines", metavar="ENGINE",
-                   help="opt-in engines' methods too, comma-separated: mjx (MJX's RK4, Euler and implicitfast, "
-                        "float32 and x64; pip install 'xcheck[mjx]'), pybullet, dart, drake (pip install "
-                        "'xcheck[engines]')")
+                   help=WITH_HELP)
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")
 
     p = sub.add_parser("nightly", help="the full report, compared with the history and recorded in it")
@@ -179,9 +183,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--methods", help="comma-separated methods (default: every method)")
     p.add_argument("--repeat", type=int, default=3, help="best of this many runs (default 3)")
     p.add_argument("--with", dest="with_engines", metavar="ENGINE",
-                   help="opt-in engines' methods too, comma-separated: mjx (MJX's RK4, Euler and implicitfast, "
-                        "float32 and x64; pip install 'xcheck[mjx]'), pybullet, dart, drake (pip install "
-                        "'xcheck[engines]')")
+                   help=WITH_HELP)
     return parser
 
 

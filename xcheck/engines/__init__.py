@@ -47,16 +47,17 @@ class Engine:
     budget_under_torque: bool = False
 
 
-#: The step budgets of the engines driven a step at a time (PyBullet, DART) or by Drake's Simulator (5-40 us a step,
-#: where ours take 0.05-0.3): a full study of 10 s keeps its steps down to 1/1024 s (20 + 40 + ... + 10240 steps),
-#: 0.1-0.8 s of one method's runs; a quick one its four coarsest of five (9 600 steps; three at least, the least that
-#: shows an order). Measured (speed.py): the quick report 15.2 s with them at 12 000, 16.5-18.5 at 25 000.
-_BUDGETS = {"step_budget": 25_000, "quick_step_budget": 12_000}
-#: Drake's Simulator costs twice Bullet's and DART's step (5-12 us torque free, 15-35 with a torque at every stage)
-_DRAKE_BUDGETS = {"step_budget": 12_000, "quick_step_budget": 6_000}
-#: EXUDYN's six solvers, 19 us a stage each under a torque: a 10 s study keeps its steps down to 1/256 s (5 100 steps);
+#: The step budgets of the engines driven a step at a time (PyBullet, DART) or by Drake's Simulator (3-40 us a step,
+#: where ours take 0.05-0.3): a full study of 10 s keeps its steps down to 1/512 s (20 + 40 + ... + 5 120 steps),
+#: 0.05-0.4 s of one method's runs; a quick one its three coarsest (the least that shows an order). Measured
+#: (speed.py, four engines): 25 000 / 12 000 made the full report 51 s and the quick 15.8; these 45.7 and 15.1.
+_BUDGETS = {"step_budget": 12_000, "quick_step_budget": 6_000}
+#: Drake's Simulator costs twice Bullet's and DART's step (5-12 us torque free, 15-35 with a torque at every stage):
+#: 1/256 s and its three coarsest
+_DRAKE_BUDGETS = {"step_budget": 6_000, "quick_step_budget": 3_000}
+#: EXUDYN's six solvers, 19 us a stage each under a torque: a 10 s study keeps its steps down to 1/128 s (2 540 steps);
 #: torque free, every step (1-2.5 us a step, as MuJoCo's)
-_EXUDYN_BUDGETS = {"step_budget": 8_000, "quick_step_budget": 4_000}
+_EXUDYN_BUDGETS = {"step_budget": 4_000, "quick_step_budget": 2_000}
 
 ENGINES = {"mujoco": Engine("mujoco", "mujoco", "xcheck.engines.mujoco", "mujoco", warm=("xcheck.engines.mujoco",),
                             magnetometer=("magnetometer_readings", "MuJoCo's <magnetometer> sensor (uniform field, "
