@@ -46,12 +46,13 @@ def study_lines(st) -> list[str]:
     lines = [f"\n{st.name}: {st.outcome} (reference: {st.reference_used})"]
     if st.reference_check:
         lines.append(f"  reference: {st.reference_check['text']}")
-    lines.append(f"  {'method':22s} {'expected':>8s} {'observed':>8s} {'finest error':>13s}  status")
+    width = max([22, *map(len, st.methods)])  # the engines' longest names (drake-semi-explicit-euler) fit
+    lines.append(f"  {'method':{width}s} {'expected':>8s} {'observed':>8s} {'finest error':>13s}  status")
     for name, m in st.methods.items():
         obs = f"{m.observed_order:.2f}" if m.observed_order is not None else "—"
         exp = m.expected_order if m.expected_order is not None else "adaptive"
         err_text = "—" if m.finest is None else format(m.finest.attitude_error, ".2e")
-        lines.append(f"  {name:22s} {exp!s:>8s} {obs:>8s} {err_text:>13s}  {m.status_text}")
+        lines.append(f"  {name:{width}s} {exp!s:>8s} {obs:>8s} {err_text:>13s}  {m.status_text}")
     lines += [f"  {line}" for line in left_out_lines(st)]
     if st.files:
         from .score import file_lines
