@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "equal_steps", "step_label", "time_grid", "check_step",
+__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "equal_steps", "finite_rows", "until_non_finite", "fixed_step_start", "step_label", "time_grid", "check_step",
            "check_initial_state", "tolerances_at", "available_memory"]
 
 #: Relative tolerance for treating ``duration / dt`` as an integer number of steps.
@@ -94,6 +94,36 @@ def step_plan(dt, duration) -> tuple[int, float]:
     if n > MAX_STEPS:
         raise ValueError(f"dt: {n} steps of {dt:g} s over {duration:g} s exceeds the limit of {MAX_STEPS}")
     return n, duration - (n - 1) * dt
+
+
+def fixed_step_start(integrators, integrator: str, q0, omega0, dt, duration, why: str):
+    """The checked start of a run by an engine's integrator taking equal steps (Drake's, EXUDYN's): ``integrator``
+    among the names of ``integrators``, the initial state (:func:`check_initial_state`) and the number of steps
+    (:func:`equal_steps`, ``why`` said when ``dt`` does not divide ``duration``). ``(q0, omega0, n)``."""
+    if integrator not in integrators:
+        raise ValueError(f"integrator: unknown {integrator!r}; expected one of {', '.join(integrators)}")
+    q0, omega0 = check_initial_state(q0, omega0)
+    return q0, omega0, equal_steps(dt, duration, why)
+
+
+def finite_rows(*arrays) -> int:
+    """How many leading rows (first axis) are finite in every one of ``arrays``: an engine's run up to the state it blew
+    up at (the conversions at its boundary refuse a non-finite one)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        good = np.logical_and.reduce([np.all(np.isfinite(np.asarray(a, dtype=float).reshape(len(a), -1)), axis=1)
+                                      for a in arrays])
+    return int(np.argmin(good)) if not good.all() else len(good)
+
+
+def until_non_finite(t, q, omega, *, method: str, dt: float, extras=None) -> "Trajectory":
+    """An engine's run as a :class:`Trajectory` from its times ``t`` and the ``q``, ``omega`` rows up to its first
+    non-finite state (:func:`finite_rows`; as many as ``t``'s when there is none): fewer fail the run, saying when."""
+    k = len(q)
+    traj = Trajectory(t=np.asarray(t)[:k], q=continuous_quaternions(q) if k else np.empty((0, 4)),
+                      omega=np.asarray(omega).reshape(-1, 3), method=method, dt=float(dt), extras=extras or {})
+    if k < len(t):
+        traj.status, traj.message = "failed", f"{method}: the state became non-finite at t = {t[k]:.6g} s"
+    return traj
 
 
 def equal_steps(dt, duration, why: str) -> int:

@@ -31,7 +31,7 @@ import numpy as np
 
 from .. import rotations as rot
 from ..body import principal_axes
-from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
+from ..trajectory import Trajectory, check_initial_state, finite_rows, step_plan, until_non_finite
 from .held_input import engine_torque
 
 __all__ = ["simulate", "free_flight", "PATHS", "to_bullet", "from_bullet", "DEFAULT_ANGULAR_DAMPING", "MAX_TURN",
@@ -176,20 +176,15 @@ def simulate(inertia, *, path: str, q0, omega0, dt: float, duration: float, torq
         orns.append(pose(body)[1])
         angs.append(rate(body)[1])
     orn, ang = np.array(orns, dtype=float), np.array(angs, dtype=float)
-    q, omega = from_bullet(orn, ang, V)
+    k = finite_rows(orn, ang)
+    q, omega = from_bullet(orn[:k], ang[:k], V)
     method = f"pybullet-{path}"
-    traj = Trajectory(t=t, q=continuous_quaternions(q), omega=omega, method=method, dt=float(dt),
-                      extras={"evaluations": n, "torque_input": "held over each step" if torque is not None else None})
-    turn = float(np.max(np.linalg.norm(ang[1:], axis=1) * np.diff(t))) if n else 0.0
+    traj = until_non_finite(t, q, omega, method=method, dt=dt, extras={
+        "evaluations": n, "torque_input": "held over each step" if torque is not None else None})
+    turn = float(np.max(np.linalg.norm(ang[1:], axis=1) * np.diff(t))) if n and traj.ok else 0.0
     if turn > MAX_TURN:  # Bullet turned the body by less than its rate asks: not the step's answer
         traj.status, traj.message = "failed", (
             f"{method}: the body turns {turn:.3g} rad in a step of {float(dt):g} s, beyond Bullet's limit of pi/4 a "
             f"step (ANGULAR_MOTION_THRESHOLD: btTransformUtil.h, btMultiBody.cpp), where it turns it by "
             f"{clamped_turn(turn):.3g} rad instead")
-        return traj
-    bad = ~(np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(omega), axis=1))
-    if bad.any():
-        k = int(np.argmax(bad))
-        traj = Trajectory(t=t[:k], q=traj.q[:k], omega=omega[:k], method=method, dt=float(dt), extras=traj.extras,
-                          status="failed", message=f"{method}: the state became non-finite at t = {t[k]:.6g} s")
     return traj

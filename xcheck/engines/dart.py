@@ -21,7 +21,7 @@ import functools
 import numpy as np
 
 from .. import rotations as rot
-from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, step_plan
+from ..trajectory import Trajectory, check_initial_state, finite_rows, step_plan, until_non_finite
 from .held_input import engine_torque
 
 __all__ = ["simulate", "free_flight", "to_dart", "from_dart", "from_dart_state"]
@@ -111,13 +111,7 @@ def simulate(inertia, *, q0, omega0, dt: float, duration: float, torque=None) ->
             body.setExtTorque(world_torque(t[k], positions[k, 0:3], velocities[k, 0:3]), False)
         world.step()
         positions[k + 1], velocities[k + 1] = skeleton.getPositions(), skeleton.getVelocities()
-    q, omega = from_dart_state(positions, velocities)
-    method = "dart-semi-implicit-euler"
-    bad = ~(np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(omega), axis=1))
-    k = int(np.argmax(bad)) if bad.any() else len(t)
-    traj = Trajectory(t=t[:k], q=continuous_quaternions(q[:k]) if k else np.empty((0, 4)), omega=omega[:k],
-                      method=method, dt=float(dt),
-                      extras={"evaluations": n, "torque_input": "held over each step" if torque is not None else None})
-    if k < len(t):
-        traj.status, traj.message = "failed", f"{method}: the state became non-finite at t = {t[k]:.6g} s"
-    return traj
+    k = finite_rows(positions, velocities)
+    q, omega = from_dart_state(positions[:k], velocities[:k])
+    return until_non_finite(t, q, omega, method="dart-semi-implicit-euler", dt=dt, extras={
+        "evaluations": n, "torque_input": "held over each step" if torque is not None else None})

@@ -22,7 +22,7 @@ import functools
 import numpy as np
 
 from .. import rotations as rot
-from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, equal_steps
+from ..trajectory import Trajectory, finite_rows, fixed_step_start, until_non_finite
 from .held_input import engine_torque
 
 __all__ = ["simulate", "free_flight", "INTEGRATORS", "to_drake", "from_drake"]
@@ -141,24 +141,12 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
     """Run Drake's ``integrator`` (:data:`INTEGRATORS`) at the fixed step ``dt`` on a free body of ``inertia`` (3, 3)
     [kg m^2] from ``(q0, omega0)`` (ours) for ``duration`` s; ``torque`` None or ``(t, q, omega) -> (3,)`` [N m] in
     body components, evaluated at every stage."""
-    if integrator not in INTEGRATORS:
-        raise ValueError(f"integrator: unknown {integrator!r}; expected one of {', '.join(INTEGRATORS)}")
-    q0, omega0 = check_initial_state(q0, omega0)
-    n = equal_steps(dt, duration, "Drake's log is periodic")
+    q0, omega0, n = fixed_step_start(INTEGRATORS, integrator, q0, omega0, dt, duration, "Drake's log is periodic")
     attitude = to_drake(q0, omega0)
     times, data = _run(inertia, mass=1.0, integrator=integrator, dt=dt, duration=duration, gravity=np.zeros(3),
                        torque=torque, state0=np.concatenate([attitude[0:4], np.zeros(3), attitude[4:7], np.zeros(3)]))
-    evaluations = INTEGRATORS[integrator][2]
-    with np.errstate(over="ignore", invalid="ignore"):  # a run that blew up: its rows up to the first bad one
-        norm = np.linalg.norm(data[:, 0:4], axis=1)
-        bad = ~(np.all(np.isfinite(data[:, 0:10]), axis=1) & np.isfinite(norm) & (norm > 0))
-    k = int(np.argmax(bad)) if bad.any() else len(times)
+    k = finite_rows(data[:, 0:10])
     q, omega = from_drake(np.concatenate([data[:k, 0:4], data[:k, 7:10]], axis=1))
-    method = f"drake-{integrator}"
-    extras = {"evaluations": evaluations * n, "norm": norm[:k],
-              "torque_input": "at every stage" if torque is not None else None}
-    traj = Trajectory(t=times[:k], q=continuous_quaternions(q) if k else np.empty((0, 4)), omega=omega,
-                      method=method, dt=float(dt), extras=extras)
-    if k < len(times):
-        traj.status, traj.message = "failed", f"{method}: the state became non-finite at t = {times[k]:.6g} s"
-    return traj
+    return until_non_finite(times, q, omega, method=f"drake-{integrator}", dt=dt, extras={
+        "evaluations": INTEGRATORS[integrator][2] * n, "norm": np.linalg.norm(data[:k, 0:4], axis=1),
+        "torque_input": "at every stage" if torque is not None else None})

@@ -25,7 +25,7 @@ import warnings
 import numpy as np
 
 from .. import rotations as rot
-from ..trajectory import Trajectory, check_initial_state, continuous_quaternions, equal_steps
+from ..trajectory import Trajectory, finite_rows, fixed_step_start, until_non_finite
 from .held_input import engine_torque
 
 __all__ = ["simulate", "INTEGRATORS", "to_exudyn", "from_exudyn"]
@@ -63,10 +63,7 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
     """Run EXUDYN's ``integrator`` (:data:`INTEGRATORS`) at the fixed step ``dt`` on a free body of ``inertia`` (3, 3)
     [kg m^2] from ``(q0, omega0)`` (ours) for ``duration`` s; ``torque`` None or ``(t, q, omega) -> (3,)`` [N m] in
     body components, evaluated at every stage."""
-    if integrator not in INTEGRATORS:
-        raise ValueError(f"integrator: unknown {integrator!r}; expected one of {', '.join(INTEGRATORS)}")
-    q0, omega0 = check_initial_state(q0, omega0)
-    n = equal_steps(dt, duration, "EXUDYN takes equal steps")
+    q0, omega0, n = fixed_step_start(INTEGRATORS, integrator, q0, omega0, dt, duration, "EXUDYN takes equal steps")
     exu, items = _exudyn()
     I = np.asarray(inertia, dtype=float)
     mbs = exu.SystemContainer().AddSystem()
@@ -113,17 +110,12 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
         return Trajectory(t=np.zeros(0), q=np.empty((0, 4)), omega=np.empty((0, 3)), method=method, dt=float(dt),
                           status="failed", message=f"{method}: EXUDYN's solver failed: {exc}")
     R_data, w_data = (np.asarray(mbs.GetSensorStoredData(s), dtype=float) for s in sensors)
-    t = R_data[:, 0]
-    with np.errstate(invalid="ignore"):
-        good = np.all(np.isfinite(R_data), axis=1) & np.all(np.isfinite(w_data), axis=1)
-    k = int(np.argmin(good)) if not good.all() else len(t)
+    t, k = R_data[:, 0], finite_rows(R_data, w_data)
     q, omega = from_exudyn(R_data[:k, 1:], w_data[:k, 1:])
-    traj = Trajectory(t=t[:k], q=continuous_quaternions(q) if k else np.empty((0, 4)), omega=omega, method=method,
-                      dt=float(dt), extras={"evaluations": None if evaluations is None else evaluations * n,
-                                            "torque_input": "at every stage" if torque is not None else None})
-    if k < len(t):
-        traj.status, traj.message = "failed", f"{method}: the state became non-finite at t = {t[k]:.6g} s"
-    elif k != n + 1 or abs(t[-1] - duration) > 1e-9 * max(duration, 1.0):
+    traj = until_non_finite(t, q, omega, method=method, dt=dt, extras={
+        "evaluations": None if evaluations is None else evaluations * n,
+        "torque_input": "at every stage" if torque is not None else None})
+    if traj.ok and (k != n + 1 or abs(t[-1] - duration) > 1e-9 * max(duration, 1.0)):
         traj.status, traj.message = "failed", (f"{method}: EXUDYN stored {k} samples to t = {t[-1]:.6g} s, expected "
                                                f"{n + 1} to {duration:g} s")
     return traj

@@ -70,11 +70,16 @@ def drake_additive_quaternion(check, method, scenario) -> str | None:
             f"{observed:.2f}{'' if check.value is not None else ', between the two finest steps'}; docs/findings.md)")
 
 
+def _completed(method) -> list:
+    """A method's completed runs with an error, coarse to fine."""
+    return [r for r in sorted(method.runs, key=lambda r: -r.dt) if r.ok and r.attitude_error is not None]
+
+
 def _last_local_order(method) -> float | None:
     """The order between a method's two finest completed runs (where the fit has too few steps in its range)."""
     import math
 
-    runs = [r for r in sorted(method.runs, key=lambda r: -r.dt) if r.ok and r.attitude_error]
+    runs = [r for r in _completed(method) if r.attitude_error > 0]
     if len(runs) < 2:
         return None
     (h1, e1), (h2, e2) = ((r.dt, r.attitude_error) for r in runs[-2:])
@@ -93,7 +98,7 @@ def drake_explicit_euler_pre_asymptotic(check, method, scenario) -> str | None:
     falls at the finest steps (it converges: not a defect) and the finest run shows the steps coarse for the motion:
     its unnormalised quaternion's norm, which grows by ``(1 + (h w / 2)^2)^(1/2)`` a step, or its energy, which
     explicit Euler raises, off by more than :data:`DRAKE_NORM_PRE_ASYMPTOTIC` / :data:`DRAKE_ENERGY_PRE_ASYMPTOTIC`."""
-    runs = [r for r in sorted(method.runs, key=lambda r: -r.dt) if r.ok and r.attitude_error is not None]
+    runs = _completed(method)
     if check.kind != "order" or len(runs) < 2 or runs[-1].attitude_error >= runs[-2].attitude_error:
         return None
     if check.value is not None and method.expected_order is not None and check.value > method.expected_order:

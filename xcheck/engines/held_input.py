@@ -1,6 +1,6 @@
 """Compiled code for the inputs engines take from xcheck: a Basilisk module that writes a precomputed input before
 every task step (the held inputs of :mod:`xcheck.engines.basilisk` without a Python call per step), and the torque
-PyBullet, DART and Drake apply, in world components from their own states (:func:`engine_torque`).
+PyBullet, DART, Drake and EXUDYN apply, in world components from their own states (:func:`engine_torque`).
 
 Basilisk's ``NumbaModel`` runs a C function (``void f(void **ptrs, uint64 CurrentSimNanos)``) at every task call
 of its module, with ``ptrs`` the pointers its owner registered: here ``ptrs[0]`` the payload of the message it
@@ -21,7 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import numba
-from ..fields.kernel import torque_eval
+from ..fields.kernel import torque_eval, world_to_body
+from ..integrators.kernels.helpers import dcm_to_quat, qmul, quat_exp
 
 __all__ = ["write_row", "SIGNATURE", "world_torque", "engine_torque"]
 
@@ -44,10 +45,11 @@ def write_row(ptrs, nanos):
 
 
 # ------------------------------------------------------------------------------------------------------------------
-# The torque an engine applies in world components, from the engine's own state (PyBullet, DART, Drake)
+# The torque an engine applies in world components, from the engine's own state (PyBullet, DART, Drake, EXUDYN)
 # ------------------------------------------------------------------------------------------------------------------
 #: How an engine gives its attitude (:func:`world_torque`'s ``form``): a quaternion scalar first (Drake's), scalar
-#: last (Bullet's), a row-major rotation matrix, or a rotation vector (DART's FreeJoint positions), body -> world.
+#: last (Bullet's), a row-major rotation matrix (EXUDYN's), or a rotation vector (DART's FreeJoint positions), body ->
+#: world.
 WXYZ, XYZW, DCM, ROTVEC = 0, 1, 2, 3
 _FORMS = {"wxyz": WXYZ, "xyzw": XYZW, "dcm": DCM, "rotvec": ROTVEC}
 
@@ -55,48 +57,33 @@ _FORMS = {"wxyz": WXYZ, "xyzw": XYZW, "dcm": DCM, "rotvec": ROTVEC}
 @numba.njit(cache=True, error_model="numpy")
 def world_torque(kind, P, T, t, att, form, right, w, rates_world, out):
     """The torque of the model ``(kind, P, T)`` (:func:`xcheck.fields.torque_eval`) in world components, from an
-    engine's state: its attitude ``att`` in ``form`` (:data:`WXYZ`, :data:`XYZW` or :data:`DCM`, flat) of a frame
-    whose attitude relative to the body is ``right`` (the body is ``att ⊗ right``: a principal frame's
-    ``conj(q_V)``, else the identity), its rate ``w`` in world components (``rates_world``) or body components.
-    One compiled call a step instead of a dozen small numpy ones (270 us a step on RAX-1's field, 20 with this)."""
+    engine's state: its attitude ``att`` in ``form`` (:data:`WXYZ`, :data:`XYZW`, :data:`DCM` row-major or
+    :data:`ROTVEC`, flat) of a frame whose attitude relative to the body is ``right`` (the body is ``att ⊗ right``: a
+    principal frame's ``conj(q_V)``, else the identity), its rate ``w`` in world components (``rates_world``) or body
+    components. One compiled call a step instead of a dozen small numpy ones (270 us a step on RAX-1's field, 20 with
+    this), written with the kernels' own quaternion helpers."""
     a = np.empty(4)
-    if form == DCM:  # Shepperd's method (xcheck.rotations.dcm_to_quat)
-        tr = att[0] + att[4] + att[8]
-        if tr >= att[0] and tr >= att[4] and tr >= att[8]:
-            a[0], a[1], a[2], a[3] = 1.0 + tr, att[7] - att[5], att[2] - att[6], att[3] - att[1]
-        elif att[0] >= att[4] and att[0] >= att[8]:
-            a[0], a[1], a[2], a[3] = att[7] - att[5], 1.0 + 2.0 * att[0] - tr, att[1] + att[3], att[2] + att[6]
-        elif att[4] >= att[8]:
-            a[0], a[1], a[2], a[3] = att[2] - att[6], att[1] + att[3], 1.0 + 2.0 * att[4] - tr, att[5] + att[7]
-        else:
-            a[0], a[1], a[2], a[3] = att[3] - att[1], att[2] + att[6], att[5] + att[7], 1.0 + 2.0 * att[8] - tr
+    if form == DCM:
+        dcm_to_quat(att, a)
+    elif form == ROTVEC:
+        quat_exp(att, a)
     elif form == XYZW:
         a[0], a[1], a[2], a[3] = att[3], att[0], att[1], att[2]
-    elif form == ROTVEC:  # exp of the rotation vector (xcheck.rotations.rotvec_to_quat)
-        angle = np.sqrt(att[0] * att[0] + att[1] * att[1] + att[2] * att[2])
-        half = 0.5 * angle
-        s = 0.5 - angle * angle / 48.0 if angle < 1e-4 else np.sin(half) / angle  # sin(angle/2) / angle
-        a[0], a[1], a[2], a[3] = np.cos(half), s * att[0], s * att[1], s * att[2]
     else:
-        a[0], a[1], a[2], a[3] = att[0], att[1], att[2], att[3]
-    q = np.empty(4)  # a ⊗ right, normalised
-    q[0] = a[0] * right[0] - a[1] * right[1] - a[2] * right[2] - a[3] * right[3]
-    q[1] = a[0] * right[1] + a[1] * right[0] + a[2] * right[3] - a[3] * right[2]
-    q[2] = a[0] * right[2] - a[1] * right[3] + a[2] * right[0] + a[3] * right[1]
-    q[3] = a[0] * right[3] + a[1] * right[2] - a[2] * right[1] + a[3] * right[0]
+        a[:] = att[:4]
+    q = np.empty(4)
+    qmul(a, right, q)
     q /= np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    R = np.empty((3, 3))  # body -> world
-    w0, x, y, z = q[0], q[1], q[2], q[3]
-    R[0, 0], R[0, 1], R[0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - w0 * z), 2 * (x * z + w0 * y)
-    R[1, 0], R[1, 1], R[1, 2] = 2 * (x * y + w0 * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w0 * x)
-    R[2, 0], R[2, 1], R[2, 2] = 2 * (x * z - w0 * y), 2 * (y * z + w0 * x), 1 - 2 * (x * x + y * y)
     wb = np.empty(3)
-    for i in range(3):
-        wb[i] = R[0, i] * w[0] + R[1, i] * w[1] + R[2, i] * w[2] if rates_world else w[i]
+    if rates_world:
+        wb[0], wb[1], wb[2] = world_to_body(q, w[0], w[1], w[2])
+    else:
+        wb[:] = w[:3]
     tau = np.empty(3)
     torque_eval(kind, P, T, t, q, wb, tau)
-    for i in range(3):
-        out[i] = R[i, 0] * tau[0] + R[i, 1] * tau[1] + R[i, 2] * tau[2]
+    conj = np.empty(4)  # R tau = R(conj q)^T tau
+    conj[0], conj[1], conj[2], conj[3] = q[0], -q[1], -q[2], -q[3]
+    out[0], out[1], out[2] = world_to_body(conj, tau[0], tau[1], tau[2])
 
 
 def engine_torque(torque, *, form: str, right=None, rates: str):
