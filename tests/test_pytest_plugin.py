@@ -150,7 +150,8 @@ def test_an_ordinary_suite_is_left_alone(pytester):
 def test_planned_checks_are_the_checks_a_study_makes():
     """Truth: the checks that real quick studies of every bundled scenario made, as the golden copy of the quick
     report keeps them (tests/data/quick-report.json; test_cli checks today's report against it), for the methods
-    this machine has (the plugin's items are planned before the study runs)."""
+    this machine has (the plugin's items are planned before the study runs; an order a step budget left undecided
+    is the one check planned and not made, its item skipped saying so)."""
     import json
 
     from xcheck.runners import RUNNERS
@@ -163,8 +164,11 @@ def test_planned_checks_are_the_checks_a_study_makes():
         files = {c.name for c in sc.trajectories}  # a trajectory file's check: named as a method's is
         made = {(c["name"].split(":", 1)[1], c["name"].split(":", 1)[0]) for c in doc["checks"].values()
                 if ":" in c["name"] and c["name"].split(":", 1)[1] in (*RUNNERS, *files)}
+        # an order the steps run could not decide, where a step budget left the deciding ones out: no claim made
+        undecided = {(m, "order") for m, left in (doc.get("over_budget") or {}).items()
+                     if "order is not measured" in left["why"]}
         assert made <= planned, (sc.name, made - planned)
-        assert {p for p in planned if p[1] != "runs"} <= made, sc.name
+        assert {p for p in planned if p[1] != "runs"} - undecided <= made, sc.name
 
 
 # ------------------------------------------------------------------------------------------------------

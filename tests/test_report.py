@@ -125,3 +125,22 @@ def test_cleanup_finishes_despite_an_interrupt():
     with pytest.raises(KeyboardInterrupt):
         _finish_despite_interrupts(interrupted_once, lambda: done.append("remove"))
     assert done == ["stop", "remove"] and calls["n"] == 2
+
+
+def test_a_figure_keeps_the_reports_style_after_a_library_changed_matplotlibs():
+    """Basilisk's scenario plot defaults (``Basilisk/utilities/simHelpers.py``, applied when a worker runs it) turn on
+    matplotlib's autolayout for the whole process: every figure after it drew a tight layout (3 s of a quick report's
+    CPU) and put its legend in the lower right. A report's figure is made with the report's style again: no layout
+    engine, legends where they fit, tick labels at the report's size."""
+    import matplotlib
+
+    from xcheck.report.plots import subplots
+
+    saved = dict(matplotlib.rcParams)
+    try:
+        matplotlib.rcParams.update({"figure.autolayout": True, "legend.loc": "lower right", "xtick.labelsize": 9})
+        fig, _ = subplots(1, 2, size=(11.0, 4.6), legend_outside=True)
+        assert fig.get_layout_engine() is None
+        assert matplotlib.rcParams["legend.loc"] == "best" and matplotlib.rcParams["xtick.labelsize"] == "medium"
+    finally:
+        matplotlib.rcParams.update(saved)

@@ -32,7 +32,7 @@ def context_of(scenario, body=None):
                       omega0=scenario.omega0, duration=scenario.duration, torque=_sum(own, applied),
                       sequence=scenario.sequence, model_moments=None if moments is None else tuple(moments),
                       engine_torque="same" if own is None else applied, wheel_speeds=scenario.wheel_speeds,
-                      own=own)
+                      own=own, body=body)
 
 
 def _sum(own, applied):

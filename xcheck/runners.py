@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from .engines import WITHOUT_VARIABLE, available, findings, installed, left_out
+from .engines.mechanism import joint_kinds, model_text
 from .integrators import METHODS, integrate, integrate_batch
 from .trajectory import Trajectory
 
@@ -36,6 +37,9 @@ class RunContext:
     wheel_speeds: tuple | None = None
     #: the torque the model exerts itself (a top's gravity, a gyrostat's wheels; part of ``torque``), or None
     own: object = None
+    #: the MJCF's body (:class:`xcheck.models.MJCFBody`): what the engines that build their own model of a top or a
+    #: gyrostat read its joint, centre of mass, gravity and wheels from (:func:`xcheck.engines.mechanism.mechanism_of`)
+    body: object = None
 
     @property
     def applied(self):
@@ -170,52 +174,33 @@ def _basilisk_input_order(torque: dict | None, model=None):
                    "over the step: first order")
 
 
-def _model_text(model) -> str | None:
-    """An MJCF's text without its comments, read so that planning a study (the pytest plugin's collection) imports no
-    MuJoCo; None when it cannot be read (said where the model is loaded for the run)."""
-    import re
-    from pathlib import Path
-
-    try:
-        return re.sub(r"<!--.*?-->", "", Path(model).read_text(encoding="utf-8", errors="replace"), flags=re.S)
-    except OSError:
-        return None
-
-
-def _joint_kinds(model) -> set:
-    """The kinds of joint an MJCF declares besides the free joint (``ball``, ``hinge``: a top's pivot, a gyrostat's
-    wheels), read from its text (:func:`_model_text`)."""
-    import re
-
-    text = _model_text(model)
-    if text is None:
-        return set()
-    kinds = set()
-    for tag in re.findall(r"<joint\b[^>]*>", text):
-        m = re.search(r"\btype\s*=\s*[\"'](\w+)[\"']", tag)
-        kinds.add(m.group(1) if m else "hinge")  # MJCF's default joint type is a hinge
-    return kinds - {"free"}
-
-
-def _free_bodies_only(engine: str):
-    """``cannot`` of an engine whose bodies here are free bodies only."""
+def _engine_cannot(module: str, *args):
+    """``cannot`` of an engine that builds tops and gyrostats on its own joints: its module's ``cannot(*args,
+    mechanism)`` of the body's kind (:func:`_kind_of`, read from the MJCF's text: no MuJoCo at planning)."""
     def cannot(model) -> str | None:
-        kinds = _joint_kinds(model)
-        if "ball" in kinds:
-            return (f"{engine}'s body here is a free body: a top on its ball joint under gravity is not modelled in "
-                    "xcheck's engine yet")
-        if kinds:
-            return f"{engine}'s body here is a free body: a gyrostat's wheels are not modelled in xcheck's engine yet"
-        return None
+        import importlib
+
+        kind = _kind_of(model)
+        return None if kind is None else importlib.import_module(module).cannot(*args, kind)
     return cannot
+
+
+def _kind_of(model):
+    """The engine-built kind of an MJCF's body, from its joints (:func:`~xcheck.engines.mechanism.joint_kinds`): the class
+    :class:`~xcheck.engines.mechanism.Top` for a ball joint, :class:`~xcheck.engines.mechanism.Gyrostat` for wheels'
+    hinges, None for a free body."""
+    from .engines.mechanism import Gyrostat, Top
+
+    kinds = joint_kinds(model)
+    return Top if "ball" in kinds else Gyrostat if kinds else None
 
 
 def _declares_pulses(model) -> bool:
     """Whether an MJCF declares a motor's pulse (``<numeric name="xcheck_pulse:...">``, outside comments), read from its
-    text (:func:`_model_text`); the model's loading checks that each names a wheel's motor."""
+    text (:func:`~xcheck.engines.mechanism.model_text`); the model's loading checks that each names a wheel's motor."""
     import re
 
-    text = _model_text(model)
+    text = model_text(model)
     if text is None:
         return False
     return re.search(r"<numeric\s[^>]*name\s*=\s*[\"']xcheck_pulse:", text) is not None
@@ -285,9 +270,11 @@ if available("mjx"):
 def _bullet(path):
     def run(ctx: RunContext, dt: float) -> Trajectory:
         from .engines.bullet import simulate
+        from .engines.mechanism import mechanism_of
 
+        mechanism = mechanism_of(ctx)
         return simulate(ctx.inertia, path=path, q0=ctx.q0, omega0=ctx.omega0, dt=dt, duration=ctx.duration,
-                        torque=ctx.torque)
+                        torque=ctx.torque if mechanism is None else ctx.applied, mechanism=mechanism)
     return run
 
 
@@ -302,14 +289,18 @@ BULLET_METHODS = {
 }
 if available("pybullet"):
     RUNNERS.update({name: Runner(name, "pybullet", 1, summary, _bullet(name.removeprefix("pybullet-")),
-                                 line_style="-.", cannot=_free_bodies_only("PyBullet"))
+                                 line_style="-.", cannot=_engine_cannot("xcheck.engines.bullet",
+                                                                        name.removeprefix("pybullet-")))
                     for name, summary in BULLET_METHODS.items()})
 
 
 def _dart(ctx: RunContext, dt: float) -> Trajectory:
     from .engines.dart import simulate
+    from .engines.mechanism import mechanism_of
 
-    return simulate(ctx.inertia, q0=ctx.q0, omega0=ctx.omega0, dt=dt, duration=ctx.duration, torque=ctx.torque)
+    mechanism = mechanism_of(ctx)
+    return simulate(ctx.inertia, q0=ctx.q0, omega0=ctx.omega0, dt=dt, duration=ctx.duration,
+                    torque=ctx.torque if mechanism is None else ctx.applied, mechanism=mechanism)
 
 
 #: DART's method (issue 40): its World's own integrator, registered when ``dartpy`` is installed (the extra
@@ -317,7 +308,8 @@ def _dart(ctx: RunContext, dt: float) -> Trajectory:
 DART_METHODS = {"dart-semi-implicit-euler": "DART's World on a FreeJoint: semi-implicit Euler, the torque held over "
                                             "each step"}
 if available("dart"):
-    RUNNERS.update({name: Runner(name, "dart", 1, summary, _dart, line_style="--", cannot=_free_bodies_only("DART"),
+    RUNNERS.update({name: Runner(name, "dart", 1, summary, _dart, line_style="--",
+                                 cannot=_engine_cannot("xcheck.engines.dart"),
                                  known=(findings.dart_truncated_exponential,))
                     for name, summary in DART_METHODS.items()})
 
@@ -328,9 +320,13 @@ def _integrator_of(module: str, integrator: str):
     def run(ctx: RunContext, dt: float) -> Trajectory:
         import importlib
 
+        from .engines.mechanism import mechanism_of
+
+        mechanism = mechanism_of(ctx)
         return importlib.import_module(module).simulate(ctx.inertia, integrator=integrator, q0=ctx.q0,
                                                         omega0=ctx.omega0, dt=dt, duration=ctx.duration,
-                                                        torque=ctx.torque)
+                                                        torque=ctx.torque if mechanism is None else ctx.applied,
+                                                        mechanism=mechanism)
     return run
 
 
@@ -348,7 +344,7 @@ DRAKE_METHODS = {
 if available("drake"):
     RUNNERS.update({name: Runner(name, "drake", order, summary,
                                  _integrator_of("xcheck.engines.drake", name.removeprefix("drake-")), line_style=":",
-                                 cannot=_free_bodies_only("Drake"), known=known)
+                                 cannot=_engine_cannot("xcheck.engines.drake", name.removeprefix("drake-")), known=known)
                     for name, (order, summary, known) in DRAKE_METHODS.items()})
 
 
@@ -364,7 +360,8 @@ EXUDYN_METHODS = {
 }
 if available("exudyn"):
     RUNNERS.update({name: Runner(name, "exudyn", order, summary,
-                                 _integrator_of("xcheck.engines.exu", name.removeprefix("exudyn-")), line_style="--", cannot=_free_bodies_only("EXUDYN"),
+                                 _integrator_of("xcheck.engines.exu", name.removeprefix("exudyn-")), line_style="--",
+                                 cannot=_engine_cannot("xcheck.engines.exu", name.removeprefix("exudyn-")),
                                  twin="lie-rkmk4" if name == "exudyn-rk44" else None)
                     for name, (order, summary) in EXUDYN_METHODS.items()})
 

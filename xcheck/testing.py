@@ -69,6 +69,9 @@ def check_message(study, method: str, kind: str) -> str | None:
     found = [c for c in study.checks if c.method == method and c.kind == kind]
     if kind == "runs" and not found:
         return None  # the runs check is made only when it fails
+    if not found and kind == "order" and method in getattr(study, "over_budget", {}):
+        left, why = study.over_budget[method]  # the steps that would decide its order were left out: no claim
+        return f"{sc.name}: {method} order: not measured: {why}\n{method_line(study, method)}"
     if not found:
         return (f"{sc.name}: {method} {kind}: not measured (no run of {method} completed)\n"
                 f"{method_line(study, method)}")
@@ -103,8 +106,9 @@ def check_outcome(study, method: str, kind: str) -> tuple[str, str | None]:
     message = check_message(study, method, kind)
     found = [c for c in study.checks if c.method == method and c.kind == kind]
     if message is not None:
-        return ("inconclusive" if found and found[0].inconclusive else "known" if found and found[0].known else
-                "fail"), message
+        undecided = not found and kind == "order" and method in getattr(study, "over_budget", {})
+        return ("inconclusive" if undecided or found and found[0].inconclusive else
+                "known" if found and found[0].known else "fail"), message
     if study.inconclusive and kind != "expected-failure":
         return "inconclusive", f"{study.scenario.name}: {method} {kind}: INCONCLUSIVE: {'; '.join(study.inconclusive)}"
     return "pass", None

@@ -42,8 +42,9 @@ class Engine:
     #: its methods in a study run as one task, in one process: its import (0.1-0.4 s) is paid once, not by every
     #: process that would take one of them
     one_task: bool = False
-    #: its step budget holds under a torque only: a torque-free run is compiled end to end (EXUDYN's: 1-2.5 us a
-    #: step), where a torque is a Python call at every stage
+    #: its step budget holds under a torque or on joints only: a free body's torque-free run is compiled end to end
+    #: (EXUDYN's: 1-2.5 us a step), where a torque is a Python call at every stage and joints are constraints that
+    #: its implicit solvers iterate on (0.05-0.2 ms a step)
     budget_under_torque: bool = False
 
 

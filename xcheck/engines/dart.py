@@ -23,8 +23,9 @@ import numpy as np
 from .. import rotations as rot
 from ..trajectory import Trajectory, check_initial_state, finite_rows, step_plan, until_non_finite
 from .held_input import engine_torque
+from .mechanism import Top, pulse_torque
 
-__all__ = ["simulate", "free_flight", "to_dart", "from_dart", "from_dart_state"]
+__all__ = ["simulate", "free_flight", "to_dart", "from_dart", "from_dart_state", "cannot"]
 
 
 @functools.lru_cache(maxsize=1)
@@ -85,33 +86,95 @@ def free_flight(*, mass: float, moments, omega0, v0, gravity, dt: float, nsteps:
     return np.arange(nsteps + 1) * float(dt), c, q, v, omega
 
 
-def simulate(inertia, *, q0, omega0, dt: float, duration: float, torque=None) -> Trajectory:
-    """Run DART's semi-implicit Euler at step ``dt`` on a free body of ``inertia`` (3, 3) [kg m^2] from
-    ``(q0, omega0)`` (ours) for ``duration`` s; ``torque`` None or ``(t, q, omega) -> (3,)`` [N m] in body
-    components, held over each step."""
-    q0, omega0 = check_initial_state(q0, omega0)
-    n, last_h = step_plan(float(dt), float(duration))
-    dart = _dart()
-    world, skeleton, body = _world(dart, dt, np.zeros(3), inertia)
+def _top(dart, world, top, q0, omega0):
+    """A top on DART's ``BallJoint`` at the world's origin (its positions the rotation vector of ``R``, its velocities
+    the body rate), its inertia about the centre of mass ``top.centre`` from the joint: ``(skeleton, body)``."""
+    skeleton = dart.dynamics.Skeleton("xcheck-top")
+    _, body = skeleton.createBallJointAndBodyNodePair(None, dart.dynamics.BallJointProperties())
+    body.setInertia(dart.dynamics.Inertia(float(top.mass), np.asarray(top.centre, dtype=float),
+                                          np.asarray(top.inertia, dtype=float)))
+    world.addSkeleton(skeleton)
+    skeleton.setPositions(rot.quat_to_rotvec(q0))
+    skeleton.setVelocities(np.asarray(omega0, dtype=float))
+    return skeleton, body
+
+
+def _gyrostat(dart, world, gyro, q0, omega0):
+    """A gyrostat in DART: the bus on a ``FreeJoint``, each wheel a child on a ``RevoluteJoint`` along its axis
+    through the centre of mass, at its speed relative to the bus: ``(skeleton, bus, wheel joints)``."""
+    skeleton = dart.dynamics.Skeleton("xcheck-gyrostat")
+    _, bus = skeleton.createFreeJointAndBodyNodePair(None, dart.dynamics.FreeJointProperties())
+    bus.setInertia(dart.dynamics.Inertia(float(gyro.mass), np.zeros(3), np.asarray(gyro.inertia, dtype=float)))
+    joints = []
+    for w in gyro.wheels:
+        props = dart.dynamics.RevoluteJointProperties()
+        props.mAxis = np.asarray(w.axis, dtype=float)
+        joint, wheel = skeleton.createRevoluteJointAndBodyNodePair(bus, props)
+        wheel.setInertia(dart.dynamics.Inertia(float(w.mass), np.zeros(3), w.inertia))
+        joints.append(joint)
+    world.addSkeleton(skeleton)
     R0, w_world = to_dart(q0, omega0)
     pose = dart.math.Isometry3()
     pose.set_rotation(R0)
-    skeleton.setPositions(dart.dynamics.FreeJoint.convertToPositions(pose))
-    skeleton.setVelocities(np.concatenate([w_world, np.zeros(3)]))
-    positions = np.empty((n + 1, 6))  # the FreeJoint's state, read as it is (0.9 us a step; its transform and body
-    velocities = np.empty((n + 1, 6))  # rate, 6.5 us): [rotation vector, translation], [R w, v]
+    skeleton.setPositions(np.concatenate([dart.dynamics.FreeJoint.convertToPositions(pose),
+                                          np.zeros(len(gyro.wheels))]))
+    skeleton.setVelocities(np.concatenate([w_world, np.zeros(3), [w.speed for w in gyro.wheels]]))
+    return skeleton, bus, joints
+
+
+def cannot(mechanism) -> str | None:
+    """DART runs every body here: a free body, a top on its ball joint, a gyrostat's wheels on hinges."""
+    return None
+
+
+def simulate(inertia, *, q0, omega0, dt: float, duration: float, torque=None, mechanism=None) -> Trajectory:
+    """Run DART's semi-implicit Euler at step ``dt`` on a free body of ``inertia`` (3, 3) [kg m^2] from
+    ``(q0, omega0)`` (ours) for ``duration`` s; ``torque`` None or ``(t, q, omega) -> (3,)`` [N m] in body
+    components, held over each step. ``mechanism``: a top or a gyrostat (:mod:`xcheck.engines.mechanism`) on DART's
+    own joints, with its gravity and the wheels' motors (their pulses held over each step); None: a free body."""
+    q0, omega0 = check_initial_state(q0, omega0)
+    n, last_h = step_plan(float(dt), float(duration))
+    dart = _dart()
+    joints, top = [], isinstance(mechanism, Top)
+    if top:
+        world = dart.simulation.World()
+        world.setGravity(np.asarray(mechanism.gravity, dtype=float))
+        world.setTimeStep(float(dt))
+        skeleton, body = _top(dart, world, mechanism, q0, omega0)
+    elif mechanism is not None:
+        world = dart.simulation.World()
+        world.setGravity(np.zeros(3))
+        world.setTimeStep(float(dt))
+        skeleton, body, joints = _gyrostat(dart, world, mechanism, q0, omega0)
+    else:
+        world, skeleton, body = _world(dart, dt, np.zeros(3), inertia)
+        R0, w_world = to_dart(q0, omega0)
+        pose = dart.math.Isometry3()
+        pose.set_rotation(R0)
+        skeleton.setPositions(dart.dynamics.FreeJoint.convertToPositions(pose))
+        skeleton.setVelocities(np.concatenate([w_world, np.zeros(3)]))
+    width = skeleton.getNumDofs()
+    positions = np.empty((n + 1, width))  # the joints' state, read as it is (0.9 us a step; the body's transform and
+    velocities = np.empty((n + 1, width))  # rate, 6.5 us): [rotation vector, ...], [R w or w, ...]
     positions[0], velocities[0] = skeleton.getPositions(), skeleton.getVelocities()
     t = np.arange(n + 1) * float(dt)
     t[-1] = float(duration)
-    world_torque = None if torque is None else engine_torque(torque, form="rotvec", rates="world")
+    rates = "body" if top else "world"
+    world_torque = None if torque is None else engine_torque(torque, form="rotvec", rates=rates)
+    motors = [(joint, w) for joint, w in zip(joints, mechanism.wheels if joints else ()) if w.pulse is not None]
     for k in range(n):
         if k == n - 1 and last_h != dt:
             world.setTimeStep(last_h)
         if world_torque is not None:
             body.setExtTorque(world_torque(t[k], positions[k, 0:3], velocities[k, 0:3]), False)
+        for joint, w in motors:  # a joint's force: a command for the next step
+            joint.setForce(0, pulse_torque(w, t[k]))
         world.step()
         positions[k + 1], velocities[k + 1] = skeleton.getPositions(), skeleton.getVelocities()
     k = finite_rows(positions, velocities)
-    q, omega = from_dart_state(positions[:k], velocities[:k])
+    if top:
+        q, omega = rot.rotvec_to_quat(positions[:k, 0:3]), velocities[:k, 0:3]
+    else:
+        q, omega = from_dart_state(positions[:k], velocities[:k])
     return until_non_finite(t, q, omega, method="dart-semi-implicit-euler", dt=dt, extras={
-        "evaluations": n, "torque_input": "held over each step" if torque is not None else None})
+        "evaluations": n, "torque_input": "held over each step" if torque is not None or motors else None})

@@ -27,8 +27,9 @@ import numpy as np
 from .. import rotations as rot
 from ..trajectory import Trajectory, finite_rows, fixed_step_start, until_non_finite
 from .held_input import engine_torque
+from .mechanism import Top
 
-__all__ = ["simulate", "INTEGRATORS", "to_exudyn", "from_exudyn"]
+__all__ = ["simulate", "INTEGRATORS", "to_exudyn", "from_exudyn", "cannot", "EXPLICIT_TOP", "GYROSTAT"]
 
 #: The implicit solvers' Newton tolerance, relative and absolute (EXUDYN's defaults 1e-8 and 1e-10 leave a floor
 #: near 1e-8 rad under a torque)
@@ -59,19 +60,84 @@ def from_exudyn(R_rows, omega_local) -> tuple[np.ndarray, np.ndarray]:
     return rot.dcm_to_quat(R), np.asarray(omega_local, dtype=float).reshape(-1, 3)
 
 
-def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float, torque=None) -> Trajectory:
-    """Run EXUDYN's ``integrator`` (:data:`INTEGRATORS`) at the fixed step ``dt`` on a free body of ``inertia`` (3, 3)
-    [kg m^2] from ``(q0, omega0)`` (ours) for ``duration`` s; ``torque`` None or ``(t, q, omega) -> (3,)`` [N m] in
-    body components, evaluated at every stage."""
-    q0, omega0, n = fixed_step_start(INTEGRATORS, integrator, q0, omega0, dt, duration, "EXUDYN takes equal steps")
-    exu, items = _exudyn()
-    I = np.asarray(inertia, dtype=float)
-    mbs = exu.SystemContainer().AddSystem()
-    rv0, w0 = to_exudyn(q0, omega0)
+#: Why EXUDYN's explicit solvers run no top (its theory docs, "Constraints with explicit solvers"): they solve no
+#: joint constraint, and a ground ``CoordinateConstraint`` they eliminate by setting the coordinate and its rate to
+#: zero after each evaluation, not by removing it from the equations: a top's pivot so fixed leaves its rotation that
+#: of a free body about its centre of mass (0.59 rad off the heavy top in 1 s, measured).
+EXPLICIT_TOP = ("EXUDYN's explicit solvers fix a pivot by zeroing its coordinates after each evaluation "
+                "(explicit.eliminateConstraints), so a top turns as a free body about its centre of mass (0.59 rad "
+                "off in 1 s); its implicit solvers run it on a ball joint")
+#: Why no EXUDYN solver runs a gyrostat here: a wheel is a second body joined by a revolute joint, an algebraic
+#: constraint. Its explicit solvers solve none; its implicit ones iterate Newton on it at every step (0.1-0.2 ms a
+#: step), fail at the tumbler's coarse steps (1/64 s), and took a minute for one quick study (measured, 1.13.6).
+GYROSTAT = ("EXUDYN's wheels are bodies on revolute-joint constraints: its explicit solvers solve none, and its "
+            "implicit solvers' Newton iterations fail at coarse steps and take a minute a quick study; xcheck does "
+            "not run gyrostats in EXUDYN")
+
+
+def cannot(integrator: str, mechanism) -> str | None:
+    """Why EXUDYN's ``integrator`` cannot run the body ``mechanism`` (:func:`xcheck.engines.mechanism.mechanism_of`, or
+    its class), or None: a top on its implicit solvers only (:data:`EXPLICIT_TOP`), a gyrostat on none
+    (:data:`GYROSTAT`)."""
+    if mechanism is None:
+        return None
+    if not (mechanism is Top or isinstance(mechanism, Top)):
+        return GYROSTAT
+    return EXPLICIT_TOP if INTEGRATORS[integrator][2] is not None else None
+
+
+def _inertia6(I) -> list:
+    """A tensor as EXUDYN's ``[Ixx, Iyy, Izz, Iyz, Ixz, Ixy]``."""
+    I = np.asarray(I, dtype=float)
+    return [I[0, 0], I[1, 1], I[2, 2], I[1, 2], I[0, 2], I[0, 1]]
+
+
+def _top(mbs, items, top, rv0, w0) -> int:
+    """A top in EXUDYN: its node at the pivot (the world's origin), the centre of mass ``top.centre`` from it and the
+    inertia about the pivot (EXUDYN's rigid body takes it about its reference point), the node's position held at the
+    origin by three ground ``CoordinateConstraint`` objects (a ball joint), gravity a mass-proportional load. The
+    node."""
     node = mbs.AddNode(items.NodeRigidBodyRotVecLG(referenceCoordinates=[0.0, 0.0, 0.0, *map(float, rv0)],
                                                    initialVelocities=[0.0, 0.0, 0.0, *map(float, w0)]))
-    mbs.AddObject(items.ObjectRigidBody(mass=1.0, nodeNumber=node, inertia=[
-        I[0, 0], I[1, 1], I[2, 2], I[1, 2], I[0, 2], I[0, 1]]))
+    body = mbs.AddObject(items.ObjectRigidBody(mass=float(top.mass), nodeNumber=node,
+                                               inertia=_inertia6(top.about_pivot),
+                                               centerOfMass=list(map(float, top.centre))))
+    ground = mbs.AddMarker(items.MarkerNodeCoordinate(nodeNumber=mbs.AddNode(items.NodePointGround()), coordinate=0))
+    for i in range(3):
+        mbs.AddObject(items.CoordinateConstraint(markerNumbers=[
+            ground, mbs.AddMarker(items.MarkerNodeCoordinate(nodeNumber=node, coordinate=i))]))
+    mbs.AddLoad(items.LoadMassProportional(markerNumber=mbs.AddMarker(items.MarkerBodyMass(bodyNumber=body)),
+                                           loadVector=list(map(float, top.gravity))))
+    return node
+
+
+def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float, torque=None,
+             mechanism=None) -> Trajectory:
+    """Run EXUDYN's ``integrator`` (:data:`INTEGRATORS`) at the fixed step ``dt`` on a free body of ``inertia`` (3, 3)
+    [kg m^2] from ``(q0, omega0)`` (ours) for ``duration`` s; ``torque`` None or ``(t, q, omega) -> (3,)`` [N m] in
+    body components, evaluated at every stage. ``mechanism``: a top (:mod:`xcheck.engines.mechanism`; the implicit
+    solvers, :func:`cannot`) on EXUDYN's own constraints, with its gravity; None: a free body."""
+    why = cannot(integrator, mechanism) if integrator in INTEGRATORS else None
+    if why is not None:
+        raise ValueError(f"integrator: {why}")
+    return _simulate(inertia, integrator=integrator, q0=q0, omega0=omega0, dt=dt, duration=duration, torque=torque,
+                     mechanism=mechanism)
+
+
+def _simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float, torque=None,
+              mechanism=None) -> Trajectory:
+    """:func:`simulate` without asking :func:`cannot` (what the findings' tests run)."""
+    q0, omega0, n = fixed_step_start(INTEGRATORS, integrator, q0, omega0, dt, duration, "EXUDYN takes equal steps")
+    exu, items = _exudyn()
+    mbs = exu.SystemContainer().AddSystem()
+    rv0, w0 = to_exudyn(q0, omega0)
+    if isinstance(mechanism, Top):
+        node = _top(mbs, items, mechanism, rv0, w0)
+    else:
+        I = np.asarray(inertia, dtype=float)
+        node = mbs.AddNode(items.NodeRigidBodyRotVecLG(referenceCoordinates=[0.0, 0.0, 0.0, *map(float, rv0)],
+                                                       initialVelocities=[0.0, 0.0, 0.0, *map(float, w0)]))
+        mbs.AddObject(items.ObjectRigidBody(mass=1.0, nodeNumber=node, inertia=_inertia6(I)))
     if torque is not None:
         world_torque = engine_torque(torque, form="dcm", rates="body")
         current = exu.ConfigurationType.Current

@@ -20,7 +20,12 @@ __all__ = ["render_figures", "scenario_figures", "new_figure", "save_figure", "s
            "line_style", "run_figure"]
 
 _STYLE = {"figure.dpi": 100, "savefig.dpi": 100, "font.size": 9, "axes.grid": True, "grid.alpha": 0.3,
-          "axes.spines.top": False, "axes.spines.right": False, "legend.fontsize": 7}
+          "axes.spines.top": False, "axes.spines.right": False, "legend.fontsize": 7,
+          # what an engine's import may change for the whole process: Basilisk's scenario plot defaults
+          # (Basilisk/utilities/simHelpers.py) turn on autolayout (a tight layout at every drawing: 3 s of CPU in a
+          # quick report) and move every legend to the lower right
+          "figure.autolayout": False, "figure.constrained_layout.use": False, "figure.facecolor": "white",
+          "xtick.labelsize": "medium", "ytick.labelsize": "medium", "axes.labelsize": "medium", "legend.loc": "best"}
 _MARKERS = "osD^v<>pPXh*"
 # The report's style, set once for the process (a rc_context per figure deep-copies every parameter: a tenth of
 # the drawing time). Figures are drawn by workers, or by the command that writes them: no one else's style to keep.
@@ -144,6 +149,7 @@ def scenario_figures(data: dict, series: dict, out_dir, *, quick: bool = False) 
 def new_figure(*args, figsize=None, **kwargs):
     """``plt.subplots`` in the report's style, without pyplot (its import is 0.27 s a process; a figure of our own
     is in no global registry, so nothing needs closing)."""
+    matplotlib.rcParams.update(_STYLE)  # again: a library run in this process since may have changed it
     fig = Figure(figsize=figsize)
     FigureCanvasAgg(fig)
     return fig, fig.subplots(*args, **kwargs)

@@ -22,6 +22,7 @@ from ..metrics import (
     tolerance_key,
 )
 from ..results import Check, MethodResult
+from ..engines.mechanism import joint_kinds
 from ..runners import RUNNERS
 from ..scenario import Scenario, check_steps
 from ..versions import versions
@@ -140,14 +141,17 @@ def not_run(scenario: Scenario) -> dict:
 def method_steps(scenario: Scenario, method: str, steps, *, quick: bool = False) -> tuple[tuple, tuple, str]:
     """``(steps run, steps left out, why)`` of ``method`` in a study at ``steps`` (coarse to fine): every step, but for
     an engine with a step budget (:attr:`xcheck.engines.Engine.step_budget`, ``quick_step_budget`` in a ``quick``
-    study; under a torque only, for an engine whose torque-free runs are compiled end to end) only the coarsest whose
+    study; under a torque or on joints only, for an engine whose free torque-free runs are compiled end to end) only
+    the coarsest whose
     steps add up to it at most, three at least (an order needs them)."""
     from ..engines import ENGINES
     from ..trajectory import step_plan
 
     steps = tuple(steps)
     engine = ENGINES.get(RUNNERS[method].engine)
-    budget = None if engine is None or RUNNERS[method].adaptive or (engine.budget_under_torque and not scenario.torque) \
+    compiled = engine is not None and engine.budget_under_torque and not scenario.torque \
+        and not joint_kinds(scenario.model)  # a free body's torque-free run, compiled end to end
+    budget = None if engine is None or RUNNERS[method].adaptive or compiled \
         else engine.quick_step_budget if quick else engine.step_budget
     if budget is None:
         return steps, (), ""
