@@ -142,7 +142,33 @@ def write_text_atomic(path, text: str) -> None:
 
 
 def write_json_atomic(path, data) -> None:
-    write_text_atomic(path, json.dumps(data, indent=1, allow_nan=False) + "\n")
+    """``data`` as JSON (no NaN), written atomically (:func:`json_text`)."""
+    write_text_atomic(path, json_text(data))
+
+
+def json_text(data) -> str:
+    """``data`` as JSON text, one entry a line where it nests and the innermost on one line each (a run's metrics,
+    a list of numbers): as readable as an indented file and a quarter smaller (a full report's results.json, 3.6 MB
+    indented, is 2.8 MB), every number as it is. NaN and infinities are refused (ValueError)."""
+    def flat(v) -> bool:
+        return not isinstance(v, (dict, list)) or all(not isinstance(x, (dict, list))
+                                                      for x in (v.values() if isinstance(v, dict) else v))
+
+    def dump(v, depth: int) -> str:
+        if flat(v):
+            return json.dumps(v, separators=(",", ":"), allow_nan=False)
+        pad = "\n" + " " * (depth + 1)
+        if isinstance(v, dict):
+            inner = ",".join(pad + _key(k) + ":" + dump(x, depth + 1) for k, x in v.items())
+            return "{" + inner + "\n" + " " * depth + "}"
+        return "[" + ",".join(pad + dump(x, depth + 1) for x in v) + "\n" + " " * depth + "]"
+
+    return dump(data, 0) + "\n"
+
+
+def _key(k) -> str:
+    """A dict key as JSON writes it (a string; a number, bool or None as its JSON text, quoted)."""
+    return json.dumps(k) if isinstance(k, str) else json.dumps({k: 0}, separators=(",", ":"))[1:-3]
 
 
 def write_trajectory_csv(path, comment: str, t, q, omega, attitude_error, euler=None) -> None:
