@@ -144,3 +144,26 @@ def test_a_figure_keeps_the_reports_style_after_a_library_changed_matplotlibs():
         assert matplotlib.rcParams["legend.loc"] == "best" and matplotlib.rcParams["xtick.labelsize"] == "medium"
     finally:
         matplotlib.rcParams.update(saved)
+
+
+def test_side_legend_names_every_line_beside_the_axes_within_the_figure():
+    """The report's legend (placed once, not measured at every drawing): one label and one line in the handle's
+    colour, style and marker for each line of the axes, in the order drawn, right of the axes and inside the
+    figure; 40 lines on a 4.6 in figure still fit (the rows shrink)."""
+    from xcheck.report.plots import side_legend, subplots
+
+    fig, (ax, cost) = subplots(1, 2, size=(11.0, 4.6), legend_outside=True, sharey=True)
+    for k in range(40):
+        ax.plot([1, 2], [k, k + 1], "--" if k % 2 else "-", marker="os"[k % 2], color=f"C{k % 10}", label=f"m{k}")
+    side_legend(cost, *ax.get_legend_handles_labels())
+    texts = [t for t in fig.texts]
+    assert [t.get_text() for t in texts] == [f"m{k}" for k in range(40)]
+    from matplotlib.lines import Line2D
+
+    lines = [a for a in fig.artists if isinstance(a, Line2D)]
+    assert len(lines) == 40 and lines[3].get_linestyle() == "--" and lines[3].get_marker() == "s"
+    assert lines[5].get_color() == "C5"
+    right = cost.get_position().x1
+    ys = [t.get_position()[1] for t in texts]
+    assert all(right < t.get_position()[0] < 1 for t in texts) and all(0 < y < 1 for y in ys)
+    assert ys == sorted(ys, reverse=True)

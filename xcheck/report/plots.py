@@ -17,7 +17,7 @@ from ..runners import RUNNERS  # noqa: E402
 from ..trajectory import step_label  # noqa: E402
 
 __all__ = ["render_figures", "scenario_figures", "new_figure", "save_figure", "subplots", "png_of", "colors_of",
-           "line_style", "run_figure"]
+           "line_style", "run_figure", "side_legend"]
 
 _STYLE = {"figure.dpi": 100, "savefig.dpi": 100, "font.size": 9, "axes.grid": True, "grid.alpha": 0.3,
           "axes.spines.top": False, "axes.spines.right": False, "legend.fontsize": 7,
@@ -303,8 +303,39 @@ def _convergence_and_cost(data, colors):
     ax.set_title(f"{data['scenario']}: convergence ({data['reference']} reference)", loc="left")
     handles, labels = ax.get_legend_handles_labels()
     more = cost.get_legend_handles_labels()  # the adaptive methods, drawn on the right only
-    cost.legend(handles + more[0], labels + more[1], loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
+    side_legend(cost, handles + more[0], labels + more[1])
     return fig
+
+
+def side_legend(ax, handles=None, labels=None, *, loc: str = "center") -> None:
+    """A legend to the right of ``ax`` (beside the figure's fixed right margin, :func:`subplots`), its entries
+    centred on the axes' height (``loc="center"``) or from its top (``"upper"``): each a short line in the handle's
+    style with its marker, and its label, placed in the figure's coordinates. matplotlib's own legend lays each
+    entry out in boxes that it measures at every drawing: a third of a report's figure time, where these are a few
+    lines and texts placed once. Rows shrink to fit where there are more than the height holds."""
+    from matplotlib.lines import Line2D
+
+    if handles is None:
+        handles, labels = ax.get_legend_handles_labels()
+    if not handles:
+        return
+    fig = ax.figure
+    size = matplotlib.rcParams["legend.fontsize"]
+    size = size if isinstance(size, (int, float)) else 7.0
+    width, height = fig.get_size_inches()
+    box = ax.get_position()
+    pitch = min(1.3 * size / 72 / height, box.height / len(handles))  # figure fraction a row
+    x0 = box.x1 + 0.01 * box.width + 0.4 * size / 72 / width
+    x1 = x0 + 2.0 * size / 72 / width
+    top = (box.y0 + box.y1) / 2 + pitch * (len(handles) - 1) / 2 if loc == "center" else box.y1 - pitch / 2
+    for k, (h, label) in enumerate(zip(handles, labels)):
+        y = top - k * pitch
+        line = Line2D([x0, (x0 + x1) / 2, x1], [y, y, y], transform=fig.transFigure, color=h.get_color(),
+                      linestyle=h.get_linestyle(), linewidth=h.get_linewidth(), marker=h.get_marker(),
+                      markersize=h.get_markersize(), markerfacecolor=h.get_markerfacecolor(),
+                      markeredgecolor=h.get_markeredgecolor(), markevery=[1])
+        fig.add_artist(line)
+        fig.text(x1 + 0.8 * size / 72 / width, y, label, fontsize=size, va="center", ha="left")
 
 
 def line_style(name):
@@ -345,7 +376,7 @@ def _comparisons(data, colors):
     ax.set_xlabel("step Δt [s]")
     ax.set_ylabel("max attitude difference [rad]")
     ax.set_title(f"{data['scenario']}: engines against ours, trajectory to trajectory")
-    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
+    side_legend(ax)
     return fig
 
 
@@ -366,7 +397,7 @@ def _errors_in_time(series, colors, torque_free: bool):
         axes[1].set_ylabel(first.get("energy_label", "|E/E0 - 1|"))
         axes[2].set_ylabel(first.get("momentum_label", "|H - H0| / |H0|"))
     axes[-1].set_xlabel("t [s]")
-    axes[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    side_legend(axes[0], loc="upper")
     return fig
 
 

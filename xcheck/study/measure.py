@@ -218,8 +218,11 @@ def _warm(runner, ctx, plan) -> None:
     """Load (or compile) a method's kernels, and what its runs load on the way for this scenario's torque (an
     engine's held-input module, its MuJoCo model), before its runs are timed: the first call in a process would
     otherwise charge a coarse step's wall time with ~10-200 ms of loading (the work-precision figure and the
-    step-size table read those times)."""
-    key = (runner.name, ctx.model_path, type(ctx.torque).__name__, getattr(getattr(ctx.torque, "field", None), "name", None))
+    step-size table read those times). Once a process for each method and kind of torque, and once a model for the
+    engines that compile the MJCF (MuJoCo's, MJX's): the others load nothing a model's own, and a warm run of
+    Basilisk's is its whole setup again (a second of a quick report's CPU when warmed for every scenario)."""
+    model = ctx.model_path if runner.engine in ("mujoco", "mjx") else None
+    key = (runner.name, model, type(ctx.torque).__name__, getattr(getattr(ctx.torque, "field", None), "name", None))
     if key in _WARM or not plan:
         return
     _WARM.add(key)
