@@ -178,7 +178,9 @@ def test_singular_start_is_reported_and_quaternions_run():
         if method == "euler-rk4":
             continue
         traj, err = final_error(method, GYRO_I, q0, w0, 1 / 256)
-        assert traj.ok and err < 1e-4, (method, err)  # each at its own accuracy (dcm-rk4: 1.9e-5)
+        # each at its own accuracy (dcm-rk4: 1.9e-5; the second-order variational integrator's phase error on the
+        # 15.7 rad/s spin: 0.099)
+        assert traj.ok and err < (0.12 if method == "lie-lgvi" else 1e-4), (method, err)
 
 
 def test_euler_rk4_runs_every_sequence():

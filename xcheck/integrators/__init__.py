@@ -166,6 +166,11 @@ def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, t
     if status == kern.SINGULAR:
         traj.status = "singular"
         traj.message = _singular_message(info, sequence, y[-1], steps * float(dt))
+    elif status == kern.NOT_CONVERGED:
+        traj.status = "failed"
+        traj.message = (f"{info.name}: the implicit step from t = {steps * float(dt):.6g} s did not converge (Newton "
+                        "on the step's rotation: a step that turns the body by about pi or more); the trajectory "
+                        "ends at the last good step")
     elif status == kern.NONFINITE:
         traj.status = "failed"
         traj.message = (f"{info.name}: the state became non-finite in the step from t = {steps * float(dt):.6g} s; "
@@ -229,7 +234,7 @@ def integrate_batch(method: str, inertia, q0, omega0, *, dt: float, duration: fl
     q, omega, _ = info.decode(y, sequence)  # (sign continuity across trajectories is harmless)
     full_t = time_grid(n, float(dt), float(duration))
     t = full_t if save == "all" else full_t[[0, -1]]
-    names = np.array(["ok", "singular", "failed"])
+    names = np.array(["ok", "singular", "failed", "failed"])
     return BatchResult(t=t, q=q.reshape(N, rows, 4), omega=omega.reshape(N, rows, 3), status=names[status],
                        steps_done=steps_done)
 

@@ -41,8 +41,10 @@ class Method:
 
     @property
     def stages(self) -> int:
-        """Right-hand-side evaluations a step (the commutator-free step has four whatever the tableau)."""
-        return 4 if K.SCHEMES[self.kernel].step == "cf4" else self.tableau.stages
+        """Right-hand-side evaluations a step (the commutator-free step has four whatever the tableau; the variational
+    integrator evaluates the torque at the step's start and end, once more to confirm the end's)."""
+        step = K.SCHEMES[self.kernel].step
+        return 4 if step == "cf4" else 2 if step == "lgvi" else self.tableau.stages
 
     @property
     def encode(self):
@@ -76,6 +78,9 @@ METHODS: dict[str, Method] = {m.name: m for m in [
            "re-centred beyond 180 deg)", "seed 000 §1.5"),
     Method("mrp-rk4", K.MRP, 4, "RK4 on the modified Rodrigues parameters (shadow set when |s| > 1 after a step): "
            "the kinematics Basilisk's hub integrates", "Schaub & Junkins; Basilisk's spacecraft hub"),
+    Method("lie-lgvi", K.LGVI, 2, "Lie group variational integrator: implicit, symplectic, the world momentum kept "
+           "torque free, the energy error bounded (Newton on the step's Cayley vector)",
+           "Lee, Leok & McClamroch 2005; forced form, 2007 eq. 50-53"),
     Method("scipy-rk45", None, None, "scipy solve_ivp RK45 (its defaults rtol 1e-3, atol 1e-6: seed 001's choice), "
            "sampled on the output grid", "seed 001, appendix A (its own choice)", tolerances=(1e-3, 1e-6)),
 ]}

@@ -1,6 +1,6 @@
 """The steps: a scheme's derivative and hooks chosen at compile time (:func:`deriv`, :func:`before_step`,
 :func:`after_step`), the Runge-Kutta stage loop generated from each tableau's exact fractions (:func:`rk_step_for`),
-and the commutator-free step (:func:`cf4_step`)."""
+the commutator-free step (:func:`cf4_step`) and the Lie group variational integrator's (:func:`lgvi_step`)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import inspect
 import numpy as np
 
 from ..tableau import RK4
-from ._variant import PYTHON_MODE, ijit, numba, overload
-from .registry import OK, SCHEMES
-from .helpers import qmul, quat_exp
-from .schemes import CF4_WORK, FIRST, LIE_STATE, STATE_SIZE  # noqa: F401 (read by the generated steps' source, and the schemes declared first)
+from ._variant import PYTHON_MODE, ijit, jit, numba, overload, torque_eval
+from .registry import NOT_CONVERGED, OK, SCHEMES
+from .helpers import cross, qmul, quat_exp
+from .schemes import CF4_WORK, FIRST, LGVI_STATE, LGVI_WORK, LIE_STATE, STATE_SIZE  # noqa: F401 (read by the generated steps' source, and the schemes declared first)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -219,4 +219,129 @@ def cf4_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, si
         for j in range(4):
             acc += b[j] * K[j, w0 + l]
         y[w0 + l] += h * acc
+    return OK
+
+
+# ------------------------------------------------------------------------------------------------
+# the Lie group variational integrator (Lee, Leok & McClamroch)
+# ------------------------------------------------------------------------------------------------
+#: The implicit equation's Newton iterations at most, and the fixed-point iterations on the end torque at most (a
+#: torque that depends on the rate: a gyrostat's wheels); both stop where the update is round-off.
+LGVI_NEWTON, LGVI_FIXED_POINT = 30, 50
+
+
+@jit
+def solve3(A, r, out):
+    """``out = A^-1 r`` for a 3x3 ``A`` (row-major, 9) by Cramer's rule; False where ``A`` is singular."""
+    c00 = A[4] * A[8] - A[5] * A[7]
+    c01 = A[5] * A[6] - A[3] * A[8]
+    c02 = A[3] * A[7] - A[4] * A[6]
+    det = A[0] * c00 + A[1] * c01 + A[2] * c02
+    if det == 0.0 or not np.isfinite(det):
+        return False
+    c10 = A[2] * A[7] - A[1] * A[8]
+    c11 = A[0] * A[8] - A[2] * A[6]
+    c12 = A[1] * A[6] - A[0] * A[7]
+    c20 = A[1] * A[5] - A[2] * A[4]
+    c21 = A[2] * A[3] - A[0] * A[5]
+    c22 = A[0] * A[4] - A[1] * A[3]
+    out[0] = (c00 * r[0] + c10 * r[1] + c20 * r[2]) / det
+    out[1] = (c01 * r[0] + c11 * r[1] + c21 * r[2]) / det
+    out[2] = (c02 * r[0] + c12 * r[1] + c22 * r[2]) / det
+    return True
+
+
+@jit
+def rotate_back(q, v, out):
+    """``R(q)^T v`` for a unit quaternion ``q``: ``v`` in the frame that ``q`` turns into."""
+    x, y, z = -q[1], -q[2], -q[3]
+    t0 = 2.0 * (y * v[2] - z * v[1])
+    t1 = 2.0 * (z * v[0] - x * v[2])
+    t2 = 2.0 * (x * v[1] - y * v[0])
+    out[0] = v[0] + q[0] * t0 + (y * t2 - z * t1)
+    out[1] = v[1] + q[0] * t1 + (z * t0 - x * t2)
+    out[2] = v[2] + q[0] * t2 + (x * t1 - y * t0)
+
+
+@ijit
+def lgvi_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, sing_tol, work):
+    """The Lie group variational integrator of Lee, Leok and McClamroch (2005, a rigid body under a potential; its
+    forced form, the discrete Lagrange-d'Alembert principle, as in their 2007 paper's eq. 50-53), with ``J`` the
+    inertia tensor, ``Pi = J w`` the body momentum, ``M`` the torque (body components) and ``F`` the step's
+    body-frame rotation::
+
+        h Pi_k + h^2/2 M_k = (F J_d - J_d F^T)^v,    J_d = tr(J)/2 E - J
+        R_k+1 = R_k F
+        Pi_k+1 = F^T Pi_k + h/2 F^T M_k + h/2 M_k+1
+
+    The first is solved for ``F`` by its Cayley vector ``f`` (``F = (E + [f]x)(E - [f]x)^-1``, the quaternion
+    ``[1, f] / sqrt(1 + f.f)``): with ``g`` its left side, ``g + g x f + (g.f) f - 2 J f = 0`` (tested against the
+    matrix equation), by Newton from ``f = h w / 2``. ``M_k+1`` is the torque at the end, iterated to a fixed point
+    where it depends on the end's rate (a gyrostat's wheels). Second order; torque free it keeps the angular
+    momentum in the world to round-off and its energy error bounded (it is symplectic). Returns OK, or
+    NOT_CONVERGED where Newton did not converge (a step that turns the body by about pi or more)."""
+    S, W = LGVI_STATE, LGVI_WORK
+    q, w = y[S.p], y[S.w]
+    M0, M1, M2, Pi, g, f = work[W.M0], work[W.M1], work[W.M2], work[W.Pi], work[W.g], work[W.f]
+    G, jac, df, qf, qn = work[W.G], work[W.jac], work[W.df], work[W.qf], work[W.qn]
+    base, wn, tmp = work[W.base], work[W.wn], work[W.tmp]
+    torque_eval(tk, tP, tT, t, q, w, M0)
+    for i in range(3):
+        Pi[i] = I[i, 0] * w[0] + I[i, 1] * w[1] + I[i, 2] * w[2]
+        g[i] = h * Pi[i] + 0.5 * h * h * M0[i]
+        f[i] = 0.5 * h * w[i]
+    converged = False
+    for _ in range(LGVI_NEWTON):
+        gf = g[0] * f[0] + g[1] * f[1] + g[2] * f[2]
+        cross(g, f, tmp)
+        for i in range(3):
+            G[i] = 2.0 * (I[i, 0] * f[0] + I[i, 1] * f[1] + I[i, 2] * f[2]) - g[i] - tmp[i] - gf * f[i]
+        for i in range(3):  # the Jacobian [g]x + f g^T + (g.f) E - 2 J, row-major
+            for j in range(3):
+                jac[3 * i + j] = f[i] * g[j] - 2.0 * I[i, j] + (gf if i == j else 0.0)
+        jac[1] -= g[2]
+        jac[2] += g[1]
+        jac[3] += g[2]
+        jac[5] -= g[0]
+        jac[6] -= g[1]
+        jac[7] += g[0]
+        if not solve3(jac, G, df):
+            return NOT_CONVERGED
+        size = 0.0
+        for i in range(3):
+            f[i] += df[i]
+            size += abs(df[i])
+        if size <= 4e-16 * (abs(f[0]) + abs(f[1]) + abs(f[2])):
+            converged = True
+            break
+    if not converged:
+        return NOT_CONVERGED
+    norm = np.sqrt(1.0 + f[0] * f[0] + f[1] * f[1] + f[2] * f[2])
+    qf[0] = 1.0 / norm
+    for i in range(3):
+        qf[i + 1] = f[i] / norm
+    qmul(q, qf, qn)
+    for i in range(3):
+        tmp[i] = Pi[i] + 0.5 * h * M0[i]
+    rotate_back(qf, tmp, base)  # F^T (Pi_k + h/2 M_k)
+    for i in range(3):
+        M1[i] = M0[i]  # the start's torque: the first guess of the end's
+    for _ in range(LGVI_FIXED_POINT):
+        for i in range(3):
+            tmp[i] = base[i] + 0.5 * h * M1[i]
+        for i in range(3):
+            wn[i] = Iinv[i, 0] * tmp[0] + Iinv[i, 1] * tmp[1] + Iinv[i, 2] * tmp[2]
+        torque_eval(tk, tP, tT, t + h, qn, wn, M2)
+        change = abs(M2[0] - M1[0]) + abs(M2[1] - M1[1]) + abs(M2[2] - M1[2])
+        for i in range(3):
+            M1[i] = M2[i]
+        if change <= 4e-16 * (abs(M1[0]) + abs(M1[1]) + abs(M1[2])):
+            break
+    for i in range(3):
+        tmp[i] = base[i] + 0.5 * h * M1[i]
+    n = np.sqrt(qn[0] * qn[0] + qn[1] * qn[1] + qn[2] * qn[2] + qn[3] * qn[3])
+    for i in range(4):
+        y[i] = qn[i] / n
+    for i in range(3):
+        y[4 + i] = Iinv[i, 0] * tmp[0] + Iinv[i, 1] * tmp[1] + Iinv[i, 2] * tmp[2]
     return OK
