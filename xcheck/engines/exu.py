@@ -29,7 +29,7 @@ from ..trajectory import Trajectory, finite_rows, fixed_step_start, until_non_fi
 from .held_input import engine_torque
 from .mechanism import Top
 
-__all__ = ["simulate", "INTEGRATORS", "to_exudyn", "from_exudyn", "cannot", "EXPLICIT_TOP", "GYROSTAT"]
+__all__ = ["simulate", "free_flight", "INTEGRATORS", "to_exudyn", "from_exudyn", "cannot", "EXPLICIT_TOP", "GYROSTAT"]
 
 #: The implicit solvers' Newton tolerance, relative and absolute (EXUDYN's defaults 1e-8 and 1e-10 leave a floor
 #: near 1e-8 rad under a torque)
@@ -111,6 +111,55 @@ def _top(mbs, items, top, rv0, w0) -> int:
     return node
 
 
+def free_flight(*, integrator: str, mass: float, moments, omega0, v0, gravity, dt: float, nsteps: int):
+    """EXUDYN's ``integrator`` flying a body whole, translation and gravity included, as the boxes benchmark does
+    (:mod:`xcheck.league`): one Lie group node, principal ``moments`` along the body axes, the identity attitude at
+    the origin, ``v0`` [m/s] and ``omega0`` [rad/s] (body and world components alike at the identity), gravity a
+    mass-proportional load, ``nsteps`` steps of ``dt`` in one C++ call. Returns ``(t, c, q, v, omega)`` like
+    :func:`xcheck.engines.mujoco.free_flight` (omega in body components)."""
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator: unknown {integrator!r}; expected one of {', '.join(INTEGRATORS)}")
+    exu, items = _exudyn()
+    mbs = exu.SystemContainer().AddSystem()
+    node = mbs.AddNode(items.NodeRigidBodyRotVecLG(referenceCoordinates=[0.0] * 6,
+                                                   initialVelocities=[*map(float, v0), *map(float, omega0)]))
+    body = mbs.AddObject(items.ObjectRigidBody(mass=float(mass), nodeNumber=node,
+                                               inertia=_inertia6(np.diag(np.asarray(moments, dtype=float)))))
+    mbs.AddLoad(items.LoadMassProportional(markerNumber=mbs.AddMarker(items.MarkerBodyMass(bodyNumber=body)),
+                                           loadVector=list(map(float, gravity))))
+    kinds = (exu.OutputVariableType.Position, exu.OutputVariableType.Velocity, exu.OutputVariableType.RotationMatrix,
+             exu.OutputVariableType.AngularVelocityLocal)
+    sensors = [mbs.AddSensor(items.SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=kind))
+               for kind in kinds]
+    mbs.Assemble()
+    _solve(exu, mbs, integrator, n=int(nsteps), dt=float(dt), duration=int(nsteps) * float(dt))
+    c, v, R, w = (np.asarray(mbs.GetSensorStoredData(s), dtype=float) for s in sensors)
+    q, omega = from_exudyn(R[:, 1:], w[:, 1:])
+    return c[:, 0], c[:, 1:], q, v[:, 1:], omega
+
+
+def _solve(exu, mbs, integrator: str, *, n: int, dt: float, duration: float) -> None:
+    """Run EXUDYN's ``integrator`` on the assembled ``mbs``: ``n`` steps to ``duration``, every step's sensor values
+    stored, the implicit solvers' Newton to :data:`NEWTON_TOLERANCE`. EXUDYN's own errors propagate."""
+    settings = exu.SimulationSettings()
+    with warnings.catch_warnings():  # 1.13 warns on the settings' older names, which it still reads
+        warnings.simplefilter("ignore", DeprecationWarning)
+        settings.timeIntegration.numberOfSteps = n
+        settings.timeIntegration.endTime = duration
+        settings.timeIntegration.verboseMode = 0
+        settings.timeIntegration.explicitIntegration.useLieGroupIntegration = True
+        settings.solutionSettings.writeSolutionToFile = False
+        settings.solutionSettings.sensorsWritePeriod = dt
+        settings.displayComputationTime = False
+        settings.displayStatistics = False
+    # the implicit solvers' Newton iterations to round-off: at EXUDYN's defaults (relative 1e-8, absolute 1e-10) their
+    # error stops near 1e-8 rad on RAX-1's field table, which read as an order of 0.88 at fine steps
+    settings.timeIntegration.newton.relativeTolerance = NEWTON_TOLERANCE
+    settings.timeIntegration.newton.absoluteTolerance = NEWTON_TOLERANCE
+    exu.SolveDynamic(mbs, simulationSettings=settings, solverType=getattr(exu.DynamicSolverType,
+                                                                          INTEGRATORS[integrator][0]))
+
+
 def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float, torque=None,
              mechanism=None) -> Trajectory:
     """Run EXUDYN's ``integrator`` (:data:`INTEGRATORS`) at the fixed step ``dt`` on a free body of ``inertia`` (3, 3)
@@ -153,25 +202,10 @@ def _simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: floa
     sensors = [mbs.AddSensor(items.SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=kind))
                for kind in (exu.OutputVariableType.RotationMatrix, exu.OutputVariableType.AngularVelocityLocal)]
     mbs.Assemble()
-    settings = exu.SimulationSettings()
-    with warnings.catch_warnings():  # 1.13 warns on the settings' older names, which it still reads
-        warnings.simplefilter("ignore", DeprecationWarning)
-        settings.timeIntegration.numberOfSteps = n
-        settings.timeIntegration.endTime = float(duration)
-        settings.timeIntegration.verboseMode = 0
-        settings.timeIntegration.explicitIntegration.useLieGroupIntegration = True
-        settings.solutionSettings.writeSolutionToFile = False
-        settings.solutionSettings.sensorsWritePeriod = float(dt)
-        settings.displayComputationTime = False
-        settings.displayStatistics = False
-    # the implicit solvers' Newton iterations to round-off: at EXUDYN's defaults (relative 1e-8, absolute 1e-10) their
-    # error stops near 1e-8 rad on RAX-1's field table, which read as an order of 0.88 at fine steps
-    settings.timeIntegration.newton.relativeTolerance = NEWTON_TOLERANCE
-    settings.timeIntegration.newton.absoluteTolerance = NEWTON_TOLERANCE
-    name, _, evaluations = INTEGRATORS[integrator]
+    _, _, evaluations = INTEGRATORS[integrator]
     method = f"exudyn-{integrator}"
     try:
-        exu.SolveDynamic(mbs, simulationSettings=settings, solverType=getattr(exu.DynamicSolverType, name))
+        _solve(exu, mbs, integrator, n=n, dt=float(dt), duration=float(duration))
     except Exception as exc:  # EXUDYN raises its own errors for a solver that does not converge
         return Trajectory(t=np.zeros(0), q=np.empty((0, 4)), omega=np.empty((0, 3)), method=method, dt=float(dt),
                           status="failed", message=f"{method}: EXUDYN's solver failed: {exc}")

@@ -100,12 +100,27 @@ def drake_rows(case_name: str, integrator: str, steps=B.STEPS) -> list[dict]:
     return _rows(case_name, "drake", f"drake-{integrator}", steps, fly)
 
 
+def exudyn_rows(case_name: str, integrator: str, steps=B.STEPS) -> list[dict]:
+    """EXUDYN's ``integrator`` on one case at each step, flying the whole body on its Lie group node (issue 40:
+    EXUDYN, live; it was not in the 2015 benchmark)."""
+    from ..engines.exu import free_flight
+
+    def fly(case, dt, n):
+        t, c, q, v, w = free_flight(integrator=integrator, mass=B.MASS, moments=B.INERTIA, omega0=case.omega0,
+                                    v0=case.v0, gravity=case.gravity, dt=dt, nsteps=n)
+        return t, q, w, c, v
+    return _rows(case_name, "exudyn", f"exudyn-{integrator}", steps, fly)
+
+
 #: PyBullet's rows in the league: its two paths, and the multibody as PyBullet makes it (its default damping on)
 BULLET_PATHS = ("multibody", "maximal", "multibody-default")
 #: Drake's rows: its semi-explicit Euler (the benchmark's engines' kind of step) and its third-order Runge-Kutta
 DRAKE_INTEGRATORS = ("semi-explicit-euler", "rk3")
+#: EXUDYN's rows: its Lie group RK44 (RKMK4) and its implicit generalized-alpha
+EXUDYN_INTEGRATORS = ("rk44", "generalized-alpha")
 #: The engine whose module each row function imports (a broken install is named, its rows left out)
-ROW_ENGINES = {"mujoco_rows": "mujoco", "bullet_rows": "pybullet", "dart_rows": "dart", "drake_rows": "drake"}
+ROW_ENGINES = {"mujoco_rows": "mujoco", "bullet_rows": "pybullet", "dart_rows": "dart", "drake_rows": "drake",
+               "exudyn_rows": "exudyn"}
 
 
 def our_rows(case_name: str, method: str, steps=B.STEPS) -> list[dict]:
@@ -128,6 +143,7 @@ def league_tasks(cases=tuple(B.CASES), steps=B.STEPS) -> list[tuple]:
                if available("pybullet")]
             + [(dart_rows, c, tuple(steps)) for c in cases if available("dart")]
             + [(drake_rows, c, i, tuple(steps)) for c in cases for i in DRAKE_INTEGRATORS if available("drake")]
+            + [(exudyn_rows, c, i, tuple(steps)) for c in cases for i in EXUDYN_INTEGRATORS if available("exudyn")]
             + [(our_rows, c, m, tuple(steps)) for c in cases for m in OURS])
 
 
