@@ -1,7 +1,7 @@
 """The ``xcheck`` command line: argparse, the signals, and exit codes; each command's work is a function of
 :mod:`xcheck.commands`.
 
-``xcheck list | converge | run | score | report | nightly | sweep | init | determine | league | releases | mjx | bench``.
+``xcheck list | converge | horizon | run | score | report | nightly | sweep | init | determine | league | releases | mjx | bench``.
 Exit codes: 0 when every check passed (and, for ``nightly``, nothing regressed), 1 when a check failed (or something
 regressed), 4 when no check failed but the study could not decide, 2 for bad input (a
 :class:`xcheck.base.errors.UserError`: the message names the file, key, argument or path), 130 when interrupted
@@ -64,6 +64,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, default=None,
                    help="processes for the study, this one included (default: this process, and one worker for "
                         "Basilisk's methods when it is installed)")
+
+    p = sub.add_parser("horizon", help="one scenario over a long duration: how each method's errors grow")
+    p.add_argument("scenario", help="a bundled scenario name or a scenario .toml file")
+    p.add_argument("--duration", help="how long: seconds, or with a unit (5400s, 90min, 1h, 1d); default 100 times "
+                                      "the scenario's duration")
+    p.add_argument("--steps", help="comma-separated steps in seconds (default: the scenario's three coarsest quick "
+                                   "steps)")
+    p.add_argument("--methods", help="comma-separated methods (default: ours and MuJoCo's fixed-step methods)")
+    p.add_argument("--json", metavar="PATH", help="write the results (schema xcheck.horizon/1)")
+    p.add_argument("--out", metavar="DIR", help="write the figure (SCENARIO-horizon.png) into DIR")
 
     p = sub.add_parser("score", help="score a trajectory file of any simulator against a scenario's reference")
     p.add_argument("file", metavar="FILE", help="a CSV of one sample a row (docs/trajectory-files.md)")

@@ -8,6 +8,7 @@ line itself (:mod:`xcheck.cli`) is argparse, printing and exit codes.
 
     report, nightly, bench        reports.py     the report, the nightly (report + history), the benchmark
     converge, run, list           studies.py     one study, one run, what is bundled
+    horizon                       horizon.py     one scenario over a long duration: how the errors grow
     sweep                         sweeps.py      a model-swap sweep
     league, releases, mjx         tables.py      the docs' tables: the boxes league, MuJoCo's releases, MJX
     init                          init.py        the scenario file an MJCF model stands for
@@ -27,7 +28,7 @@ COMMANDS = {"list": ("studies", "list_all"), "converge": ("studies", "converge")
             "report": ("reports", "report"), "nightly": ("reports", "nightly"), "bench": ("reports", "bench"),
             "sweep": ("sweeps", "sweep"), "league": ("tables", "league"), "releases": ("tables", "releases"),
             "mjx": ("tables", "mjx"), "init": ("init", "init"), "determine": ("determine", "determine"),
-            "score": ("score", "score")}
+            "score": ("score", "score"), "horizon": ("horizon", "horizon")}
 
 
 def _stderr(text: str) -> None:

@@ -17,7 +17,7 @@ from ..runners import RUNNERS  # noqa: E402
 from ..trajectory import step_label  # noqa: E402
 
 __all__ = ["render_figures", "scenario_figures", "new_figure", "save_figure", "subplots", "png_of", "colors_of",
-           "line_style", "run_figure", "side_legend"]
+           "line_style", "run_figure", "side_legend", "horizon_figure"]
 
 _STYLE = {"figure.dpi": 100, "savefig.dpi": 100, "font.size": 9, "axes.grid": True, "grid.alpha": 0.3,
           "axes.spines.top": False, "axes.spines.right": False, "legend.fontsize": 7,
@@ -498,3 +498,44 @@ def _torqued_histories(data, series, name):
     figs.append(png_of(fig, f"{name}-histories.png",
                       "Torque, Euler parameters and body rates in body components (seed 004 Figs. 9-11)."))
     return figs
+
+
+def horizon_figure(doc: dict):
+    """The horizon study (``xcheck horizon``'s JSON, schema xcheck.horizon/1): attitude error against time on log-log
+    axes, one panel per step, each method a line; below, the relative energy drift where the motion keeps one."""
+    steps = doc["steps"]
+    lines = [line for line in doc["lines"] if line["status"] == "ok"]
+    energy = any(line["energy_drift"] is not None for line in lines)
+    names = list(dict.fromkeys(line["method"] for line in doc["lines"]))
+    colors = colors_of(names)
+    fig, axes = subplots(2 if energy else 1, len(steps), size=(4.2 * len(steps) + 2.5, 7.4 if energy else 4.2),
+                         legend_outside=True, sharex=True, sharey="row", squeeze=False)
+    for col, dt in enumerate(steps):
+        top = axes[0, col]
+        for line in (x for x in lines if x["dt"] == dt):
+            t = np.asarray(line["t"], dtype=float)
+            top.loglog(t, np.maximum(np.asarray(line["attitude_error"], dtype=float), 1e-17),
+                       line_style(line["method"]), lw=1.2, color=colors[line["method"]], label=line["method"])
+            if energy and line["energy_drift"] is not None:
+                axes[1, col].loglog(t, np.maximum(np.asarray(line["energy_drift"], dtype=float), 1e-17),
+                                    line_style(line["method"]), lw=1.2, color=colors[line["method"]])
+        for bound in (1e-6, 1e-3):
+            top.axhline(bound, color="0.5", lw=0.8, ls=":")
+        top.set_title((f"{doc['scenario']} over {doc['duration']:g} s ({doc['reference']} reference)\n" if col == 0
+                       else "\n") + f"Δt = {step_label(dt)} s", loc="left")
+        axes[-1, col].set_xlabel("t [s]")
+    axes[0, 0].set_ylabel("attitude error [rad]")
+    if energy:
+        axes[1, 0].set_ylabel("|E/E₀ − 1|")
+    fig.subplots_adjust(top=1 - 0.6 / fig.get_size_inches()[1])  # the two-line titles
+    side_legend(axes[0, -1], *_unique_handles(axes[0]), loc="upper")
+    return fig
+
+
+def _unique_handles(axes):
+    """The lines of a row of axes, one a label (the first drawn)."""
+    seen = {}
+    for ax in axes:
+        for h, label in zip(*ax.get_legend_handles_labels()):
+            seen.setdefault(label, h)
+    return list(seen.values()), list(seen)

@@ -1,0 +1,102 @@
+"""``xcheck horizon``: one scenario over a long duration, each method at a few steps (issue 41,
+:mod:`xcheck.study.horizon`): how its attitude error and energy grow, and how long it stays within 1e-6 and 1e-3 rad."""
+
+from __future__ import annotations
+
+import math
+
+from ..base.errors import UsageError
+from . import Context, Outcome
+from .arguments import methods_arg
+
+#: The steps of a horizon study when none are given: the scenario's three coarsest quick steps.
+DEFAULT_STEP_COUNT = 3
+
+
+def _duration(text: str | None, scenario) -> float:
+    """``--duration``: seconds, or with a unit (``5400s``, ``90min``, ``1h``, ``1d``); default 100 times the
+    scenario's own."""
+    if text is None:
+        return 100.0 * scenario.duration
+    units = {"d": 86400.0, "h": 3600.0, "min": 60.0, "s": 1.0}
+    for unit, scale in units.items():
+        if text.endswith(unit):
+            number, factor = text[: -len(unit)], scale
+            break
+    else:
+        number, factor = text, 1.0
+    try:
+        value = float(number) * factor
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise UsageError(f"--duration: expected a positive time in s, or with a unit (5400s, 90min, 1h, 1d), got "
+                         f"{text!r}")
+    return value
+
+
+def _steps(text: str | None, scenario, duration: float) -> list[float]:
+    from ..scenario import check_steps
+
+    if text is None:
+        return sorted(scenario.quick_steps, reverse=True)[:DEFAULT_STEP_COUNT]
+    try:
+        steps = [float(s) for s in text.split(",") if s.strip()]
+        return list(check_steps(steps, duration))
+    except ValueError as exc:
+        raise UsageError(f"--steps: {exc} (over {duration:g} s)") from None
+
+
+def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: str | None, json: str | None,
+            out: str | None = None, ctx: Context) -> Outcome:
+    from ..base.files import check_output_dir, check_output_file, write_json_atomic
+    from ..scenario import resolve_scenario
+    from ..study.horizon import THRESHOLDS, run_horizon
+
+    sc = resolve_scenario(scenario)
+    T = _duration(duration, sc)
+    dts = _steps(steps, sc, T)
+    chosen = methods_arg(methods) if methods is not None else None
+    if json:
+        check_output_file(json, "--json", suffixes=(".json",))
+    if out:
+        check_output_dir(out, "--out")
+    from ..reference import ReferenceFailure
+
+    try:
+        res = run_horizon(sc, duration=T, steps=dts, methods=chosen, progress=ctx.progress())
+    except ReferenceFailure as exc:
+        raise UsageError(f"--duration: {exc}; a shorter duration, or a scenario with a closed form") from None
+    ctx.say(f"\n{sc.name} over {T:g} s ({sc.reference} reference): attitude error ∝ t^p, the energy's drift, and how "
+            "long each stays within 1e-6 and 1e-3 rad")
+    width = max([22, *(len(line.method) for line in res.lines)])
+    ctx.say(f"  {'method':{width}s} {'step [s]':>10s} {'error at T':>11s} {'p':>6s}  {'energy':<16s} "
+            + " ".join(f"{'within ' + format(b, 'g'):>13s}" for b in THRESHOLDS))
+    for line in res.lines:
+        if line.status != "ok":
+            ctx.say(f"  {line.method:{width}s} {line.dt:>10.6g} failed: {line.message}")
+            continue
+        p = "—" if line.growth is None else f"{line.growth:.2f}"
+        energy = "—" if line.energy_law is None else line.energy_law
+        within = " ".join(f"{_seconds(line.within[b], T):>13s}" for b in THRESHOLDS)
+        ctx.say(f"  {line.method:{width}s} {line.dt:>10.6g} {line.final_error:>11.3g} {p:>6s}  {energy:<16s} {within}")
+    if json:
+        write_json_atomic(json, res.to_json())
+        ctx.written.append(json)
+    if out:
+        from pathlib import Path
+
+        from ..report.plots import horizon_figure, save_figure
+
+        path = Path(out) / f"{sc.name}-horizon.png"
+        save_figure(horizon_figure(res.to_json()), path)
+        ctx.written.append(str(path))
+        ctx.say(f"figure: {path}")
+    return Outcome("PASSED")
+
+
+def _seconds(value: float, duration: float) -> str:
+    """A time within a bound, as read: the whole run, 'at once', or seconds."""
+    if value >= duration:
+        return "whole run"
+    return "at once" if value == 0 else f"{value:.4g} s"

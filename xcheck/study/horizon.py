@@ -1,0 +1,201 @@
+"""The horizon study (issue 41): how far off a method is after an orbit, an hour, a day, and how its error grows. Each
+method runs at a few steps over the long duration; its attitude error against the scenario's reference and its
+energy drift (where the motion keeps an energy: torque free, or a top under its own gravity) are sampled on a
+logarithmic time grid; each growth is fitted as a power of time, and the time within which the error stays under
+1e-6 and 1e-3 rad is read off both grids together (a uniform one of :data:`UNIFORM_SAMPLES` times: its resolution).
+
+The laws, as the theory has them: a Runge-Kutta method's attitude error grows as ``t`` at first and then as ``t^2``
+once its phase error dominates, its energy drifts secularly (as ``t``); a symplectic method's energy error stays
+bounded (``t^0``), though its phase drifts too (``lie-lgvi``)."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..rotations import attitude_error, quat_rotate
+from ..runners import RUNNERS
+from ..scenario import Scenario
+
+__all__ = ["HorizonLine", "HorizonResult", "run_horizon", "growth_exponent", "drift_law", "time_within",
+           "log_indices", "THRESHOLDS", "LOG_SAMPLES", "UNIFORM_SAMPLES"]
+
+#: The attitude errors [rad] whose first crossing a horizon study reports.
+THRESHOLDS = (1e-6, 1e-3)
+#: Times on the logarithmic grid (the figure's and the growth fits'), and on the uniform grid (the crossing times').
+LOG_SAMPLES, UNIFORM_SAMPLES = 48, 2000
+#: Errors below this [rad] are round-off for the growth fits (a method at round-off has no growth law to show).
+ROUND_OFF = 1e-13
+#: A relative energy drift below this is round-off (1e-16 a step over a million steps).
+DRIFT_ROUND_OFF = 1e-10
+
+
+@dataclass
+class HorizonLine:
+    """One method at one step over the horizon: the sampled times, attitude errors and energy drifts (None where the
+    motion keeps no energy), the fitted growths, and the time within which the error stays under each of
+    :data:`THRESHOLDS` (the whole duration where it never crosses; 0 where the first sample already does)."""
+
+    method: str
+    dt: float
+    status: str
+    message: str = ""
+    t: list = field(default_factory=list)
+    attitude_error: list = field(default_factory=list)
+    energy_drift: list | None = None
+    growth: float | None = None
+    energy_law: str | None = None
+    energy_exponent: float | None = None
+    within: dict = field(default_factory=dict)
+    final_error: float | None = None
+
+    def to_json(self) -> dict:
+        return dataclasses.asdict(self) | {"within": {f"{k:g}": v for k, v in self.within.items()}}
+
+
+@dataclass
+class HorizonResult:
+    scenario: Scenario
+    duration: float
+    steps: tuple
+    lines: list
+
+    def to_json(self) -> dict:
+        from ..versions import versions
+
+        return {"schema": "xcheck.horizon/1", "scenario": self.scenario.name, "duration": self.duration,
+                "steps": list(self.steps), "reference": self.scenario.reference, "versions": versions(),
+                "lines": [line.to_json() for line in self.lines]}
+
+
+def log_indices(n: int, count: int = LOG_SAMPLES) -> np.ndarray:
+    """Indices of a run's ``n + 1`` samples, logarithmically spaced from the first step to the last (each once)."""
+    return np.unique(np.rint(np.geomspace(1, max(n, 1), count)).astype(np.int64))
+
+
+def _fit(t, y, floor: float) -> float | None:
+    """The exponent of ``y ∝ t^p`` over the samples above ``floor`` in the last two decades of ``t`` (None with fewer
+    than four)."""
+    t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
+    keep = (t >= t[-1] / 100) & (y > floor) & np.isfinite(y)
+    if keep.sum() < 4:
+        return None
+    return float(np.polyfit(np.log(t[keep]), np.log(y[keep]), 1)[0])
+
+
+def growth_exponent(t, error) -> float | None:
+    """``p`` in attitude error ∝ t^p, fitted over the last two decades of time above round-off (:data:`ROUND_OFF`)."""
+    return _fit(t, error, ROUND_OFF)
+
+
+def drift_law(t, drift) -> tuple[str | None, float | None]:
+    """Whether an energy drift is bounded or grows: the exponent ``q`` of its running maximum over windows
+    ``[T/2^(k+1), T/2^k]`` (k = 0 ... 5) against their ends; ``"bounded"`` for q < 0.2, ``"secular"`` for q >= 0.8
+    (a drift as t), else ``"grows as t^q"``; ``"round-off"`` where it stays below :data:`DRIFT_ROUND_OFF` (a
+    million steps' round-off: whatever its growth, nothing the method does). (None, None) without samples."""
+    t, drift = np.asarray(t, dtype=float), np.abs(np.asarray(drift, dtype=float))
+    if not len(t):
+        return None, None
+    if np.max(drift) <= DRIFT_ROUND_OFF:
+        return "round-off", None
+    ends, peaks = [], []
+    for k in range(6):
+        lo, hi = t[-1] / 2 ** (k + 1), t[-1] / 2 ** k
+        window = drift[(t > lo) & (t <= hi)]
+        if len(window):
+            ends.append(hi)
+            peaks.append(max(float(window.max()), 1e-300))
+    if len(ends) < 3:
+        return None, None
+    q = float(np.polyfit(np.log(ends), np.log(peaks), 1)[0])
+    return ("bounded" if q < 0.2 else "secular" if q >= 0.8 else f"grows as t^{q:.2f}"), q
+
+
+def time_within(t, error, bound: float) -> float:
+    """The last time before the error first exceeds ``bound`` (``t[-1]`` where it never does, 0 at once)."""
+    over = np.nonzero(np.asarray(error) > bound)[0]
+    if not len(over):
+        return float(t[-1])
+    return 0.0 if over[0] == 0 else float(t[over[0] - 1])
+
+
+def _energy(ctx, q, omega) -> np.ndarray | None:
+    """The energy the motion keeps (kinetic, and a top's potential in its own gravity), or None where a torque
+    works on the body (or a gyrostat's wheels share it)."""
+    body = ctx.body
+    if getattr(body, "wheels", ()):
+        return None
+    kinetic = 0.5 * np.einsum("ni,ij,nj->n", omega, np.asarray(ctx.inertia, dtype=float), omega)
+    if ctx.torque is None:
+        return kinetic
+    if ctx.own is not None and ctx.torque is ctx.own and getattr(body, "joint", "free") == "ball":
+        return kinetic - body.mass * quat_rotate(q, np.asarray(body.centre, dtype=float)) @ np.asarray(body.gravity)
+    return None
+
+
+def run_horizon(scenario: Scenario, *, duration: float, steps, methods=None, progress=None) -> HorizonResult:
+    """Every method of ``methods`` (default: ours and MuJoCo's fixed-step methods) at each of ``steps`` over
+    ``duration`` s, against the scenario's reference over that duration (:class:`HorizonLine` each)."""
+    from .context import run_context, scenario_reference
+
+    long = dataclasses.replace(scenario, duration=float(duration))
+    ctx = run_context(long)
+    if long.reference == "exact":  # the closed form at any time (its guard against DOP853 is the ordinary study's,
+        ref = _Exact(ctx)          # over the scenario's own duration: over a day DOP853 would exceed its budget)
+    else:
+        from ..reference import ReferenceFailure
+
+        try:
+            ref = scenario_reference(long)
+        except ReferenceFailure as exc:
+            raise ReferenceFailure(f"the scenario's {long.reference} reference over {duration:g} s: {exc}") from None
+    if methods is None:
+        methods = [m for m, r in RUNNERS.items() if r.engine in ("xcheck", "mujoco") and not r.adaptive
+                   and r.demonstration is None]
+    lines = []
+    total = len(methods) * len(steps)
+    for k, (method, dt) in enumerate((m, float(dt)) for m in methods for dt in steps):
+        if progress:
+            progress(k, total, f"{method} at {dt:g} s")
+        lines.append(_line(RUNNERS[method], ctx, ref, dt))
+    if progress:
+        progress(total, total, "")
+    return HorizonResult(long, float(duration), tuple(float(s) for s in steps), lines)
+
+
+class _Exact:
+    """The scenario's closed form at any times: ``at(t) -> (q, omega, mask)`` as a study's reference."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+
+    def at(self, t):
+        from ..reference import exact_reference
+
+        q, w = exact_reference(self.ctx.inertia, self.ctx.q0, self.ctx.omega0, np.asarray(t), self.ctx.torque)
+        return q, w, np.ones(len(t), bool)
+
+
+def _line(runner, ctx, ref, dt: float) -> HorizonLine:
+    traj = runner.run(ctx, dt)
+    if not traj.ok or len(traj.t) < 3:
+        return HorizonLine(runner.name, dt, "failed", traj.message or "the run did not complete")
+    n = len(traj.t) - 1
+    uniform = np.unique(np.rint(np.linspace(0, n, UNIFORM_SAMPLES + 1)).astype(np.int64))
+    logs = log_indices(n)
+    idx = np.union1d(uniform, logs)
+    q_ref, _, mask = ref.at(traj.t[idx])
+    err = np.full(len(idx), np.nan)
+    err[mask] = attitude_error(traj.q[idx][mask], q_ref[mask])
+    energy = _energy(ctx, traj.q[idx], traj.omega[idx])
+    drift = None if energy is None else np.abs(energy / energy[0] - 1)
+    on_log = np.isin(idx, logs)
+    t_log, e_log = traj.t[idx][on_log], err[on_log]
+    law, q = (None, None) if drift is None else drift_law(t_log, drift[on_log])
+    return HorizonLine(runner.name, dt, "ok", t=t_log.tolist(), attitude_error=e_log.tolist(),
+                       energy_drift=None if drift is None else drift[on_log].tolist(),
+                       growth=growth_exponent(t_log, e_log), energy_law=law, energy_exponent=q,
+                       within={b: time_within(traj.t[idx], err, b) for b in THRESHOLDS},
+                       final_error=float(err[-1]))
