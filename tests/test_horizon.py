@@ -112,3 +112,23 @@ def test_rkmk4_converges_to_the_closed_form_over_a_thousand_seconds():
     errors = [float(attitude_error(integrate("lie-rkmk4", ctx.inertia, ctx.q0, ctx.omega0, dt=dt,
                                              duration=1000.0).q[-1], q[1])) for dt in (1 / 64, 1 / 128, 1 / 256)]
     assert errors[0] / errors[1] > 16 and errors[1] / errors[2] > 16 and errors[2] < 1e-8, errors
+
+
+def test_a_scenarios_horizon_table_is_read_and_checked(tmp_path):
+    """``[horizon]`` gives ``xcheck horizon`` its duration and steps (the bundled gyroscope: an hour at 1/64, 1/128,
+    1/256 s); a step longer than the duration or an unknown key is refused naming the file and the key."""
+    from xcheck.base.errors import ScenarioError
+    from xcheck.scenario import load_scenario
+
+    assert resolve_scenario("gyroscope-nonsingular").horizon == (3600.0, (1 / 64, 1 / 128, 1 / 256))
+    assert resolve_scenario("tumbler-intermediate-axis").horizon[0] == 17400.0
+    assert resolve_scenario("rax1-orbit-field").horizon is None
+    base = resolve_scenario("heavy-top").path.read_text()
+    for table, words in (("[horizon]\nduration = 10.0\nsteps = [20.0]\n", "[horizon] steps"),
+                         ("[horizon]\nduration = 10.0\nlength = 3\n", "[horizon] length: unknown key"),
+                         ("[horizon]\nsteps = [0.1]\n", "[horizon] duration: missing")):
+        text = base.split("[horizon]")[0] + table
+        path = tmp_path / "s.toml"
+        path.write_text(text.replace('model = "../heavy_top.xml"', f'model = "{resolve_scenario("heavy-top").model}"'))
+        with pytest.raises(ScenarioError, match=words.replace("[", r"\[").replace("]", r"\]")):
+            load_scenario(path, check_model=False)

@@ -123,6 +123,8 @@ class Scenario:
     inertia: tuple | None = None
     #: the [determination] table (:class:`xcheck.determination.sensors.DeterminationSpec`); None: the scenario has none
     determination: object = None
+    #: ``[horizon]`` (issue 41): ``(duration, steps)`` [s] of ``xcheck horizon`` (:func:`_read_horizon`); None: none
+    horizon: tuple | None = None
     #: a gyrostat's wheels' initial speeds relative to the body [rad/s], in the MJCF's order; None: the model's own
     #: (its first keyframe's, else zero)
     wheel_speeds: tuple | None = None
@@ -255,7 +257,7 @@ class _Reader:
 
 
 _TOP_KEYS = ("name", "description", "model", "duration", "initial", "torque", "study", "checks", "determination",
-             "earth", "trajectory")
+             "earth", "trajectory", "horizon")
 
 
 def load_scenario(path, *, check_model: bool = True) -> Scenario:
@@ -315,10 +317,11 @@ def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scena
         determination = read_determination(_Reader(path, top.get("determination", "table"), "determination"),
                                            duration, torque)
 
+    horizon = _read_horizon(_Reader(path, top.get("horizon", "table"), "horizon")) if "horizon" in data else None
     scenario = Scenario(name=name, path=path, model=model, duration=duration, q0=q0, omega0=omega0,
                         sequence=sequence, description=description, torque=torque, checks=checks,
                         determination=determination, wheel_speeds=wheel_speeds, derive=derive, earth=earth,
-                        trajectories=trajectories, **study)
+                        trajectories=trajectories, horizon=horizon, **study)
     if check_model:
         from .assembly import check_scenario_model
 
@@ -432,6 +435,18 @@ def _read_torques(top: _Reader, data: dict):
         top.fail("torque", f"expected [torque] tables ([[torque]] for each term of a sum), got {value!r}")
     torque = [_read_torque(_Reader(top.path, t, f"torque[{k}]")) for k, t in enumerate(value)]
     return torque[0] if len(torque) == 1 else torque
+
+
+def _read_horizon(hz: _Reader) -> tuple:
+    """``[horizon]`` (issue 41): ``xcheck horizon``'s run by default, ``(duration, steps)`` [s]: steps each at most the
+    duration; ``()`` without them (the three coarsest quick steps, chosen when it runs)."""
+    duration, steps = hz.positive("duration", required=True), tuple(hz.get("steps", "numbers", []))
+    try:
+        steps = tuple(check_steps(steps, duration)) if steps else ()
+    except ValueError as exc:
+        hz.fail("steps", str(exc))
+    hz.finish()
+    return duration, steps
 
 
 def _read_study(st: _Reader, duration: float, torque, omega0) -> dict:

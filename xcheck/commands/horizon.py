@@ -14,10 +14,10 @@ DEFAULT_STEP_COUNT = 3
 
 
 def _duration(text: str | None, scenario) -> float:
-    """``--duration``: seconds, or with a unit (``5400s``, ``90min``, ``1h``, ``1d``); default 100 times the
-    scenario's own."""
+    """``--duration``: seconds, or with a unit (``5400s``, ``90min``, ``1h``, ``1d``); default the scenario's
+    ``[horizon]`` duration, else 100 times its own."""
     if text is None:
-        return 100.0 * scenario.duration
+        return scenario.horizon[0] if scenario.horizon else 100.0 * scenario.duration
     units = {"d": 86400.0, "h": 3600.0, "min": 60.0, "s": 1.0}
     for unit, scale in units.items():
         if text.endswith(unit):
@@ -39,7 +39,9 @@ def _steps(text: str | None, scenario, duration: float) -> list[float]:
     from ..scenario import check_steps
 
     if text is None:
-        return sorted(scenario.quick_steps, reverse=True)[:DEFAULT_STEP_COUNT]
+        if scenario.horizon and scenario.horizon[1]:
+            return list(scenario.horizon[1])
+        return [s for s in sorted(scenario.quick_steps, reverse=True) if s <= duration][:DEFAULT_STEP_COUNT]
     try:
         steps = [float(s) for s in text.split(",") if s.strip()]
         return list(check_steps(steps, duration))

@@ -28,8 +28,8 @@ THRESHOLDS = (1e-6, 1e-3)
 LOG_SAMPLES, UNIFORM_SAMPLES = 48, 2000
 #: Errors below this [rad] are round-off for the growth fits (a method at round-off has no growth law to show).
 ROUND_OFF = 1e-13
-#: A relative energy drift below this is round-off (1e-16 a step over a million steps).
-DRIFT_ROUND_OFF = 1e-10
+#: A relative energy drift below this a step is round-off (LGVI's, torque free: 1.6e-16 a step over 1e5 steps).
+DRIFT_ROUND_OFF = 1e-15
 
 
 @dataclass
@@ -90,15 +90,16 @@ def growth_exponent(t, error) -> float | None:
     return _fit(t, error, ROUND_OFF)
 
 
-def drift_law(t, drift) -> tuple[str | None, float | None]:
+def drift_law(t, drift, steps: int | None = None) -> tuple[str | None, float | None]:
     """Whether an energy drift is bounded or grows: the exponent ``q`` of its running maximum over windows
     ``[T/2^(k+1), T/2^k]`` (k = 0 ... 5) against their ends; ``"bounded"`` for q < 0.2, ``"secular"`` for q >= 0.8
-    (a drift as t), else ``"grows as t^q"``; ``"round-off"`` where it stays below :data:`DRIFT_ROUND_OFF` (a
-    million steps' round-off: whatever its growth, nothing the method does). (None, None) without samples."""
+    (a drift as t), else ``"grows as t^q"``; ``"round-off"`` where it stays below the round-off of the run's
+    ``steps`` (:data:`DRIFT_ROUND_OFF` a step, 1e-12 at least; without ``steps``, that of a million): whatever its
+    growth, nothing the method does. (None, None) without samples."""
     t, drift = np.asarray(t, dtype=float), np.abs(np.asarray(drift, dtype=float))
     if not len(t):
         return None, None
-    if np.max(drift) <= DRIFT_ROUND_OFF:
+    if np.max(drift) <= max(1e-12, DRIFT_ROUND_OFF * (steps if steps else 1e6)):
         return "round-off", None
     ends, peaks = [], []
     for k in range(6):
@@ -193,7 +194,7 @@ def _line(runner, ctx, ref, dt: float) -> HorizonLine:
     drift = None if energy is None else np.abs(energy / energy[0] - 1)
     on_log = np.isin(idx, logs)
     t_log, e_log = traj.t[idx][on_log], err[on_log]
-    law, q = (None, None) if drift is None else drift_law(t_log, drift[on_log])
+    law, q = (None, None) if drift is None else drift_law(t_log, drift[on_log], steps=n)
     return HorizonLine(runner.name, dt, "ok", t=t_log.tolist(), attitude_error=e_log.tolist(),
                        energy_drift=None if drift is None else drift[on_log].tolist(),
                        growth=growth_exponent(t_log, e_log), energy_law=law, energy_exponent=q,
