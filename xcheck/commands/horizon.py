@@ -71,6 +71,7 @@ def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: 
         raise UsageError(f"--duration: {exc}; a shorter duration, or a scenario with a closed form") from None
     ctx.say(f"\n{sc.name} over {T:g} s ({sc.reference} reference): attitude error ∝ t^p, the energy's drift, and how "
             "long each stays within 1e-6 and 1e-3 rad")
+    ctx.say(f"  reference: {res.reference_note}")
     width = max([22, *(len(line.method) for line in res.lines)])
     ctx.say(f"  {'method':{width}s} {'step [s]':>10s} {'error at T':>11s} {'p':>6s}  {'energy':<16s} "
             + " ".join(f"{'within ' + format(b, 'g'):>13s}" for b in THRESHOLDS))
