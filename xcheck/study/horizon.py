@@ -32,6 +32,10 @@ ROUND_OFF = 1e-13
 #: that checks it: a day of RAX-1 in the orbit field agrees with it to 1.7e-10 rad, 0.3 s a run (rtol 1e-13, a
 #: study's, is 7e-8 rad off over the day).
 HORIZON_RTOL = 2.5e-15
+#: The most [rad] the reference may differ from itself at half the tolerance before a horizon study refuses to judge
+#: by it: the errors it reads go down to 1e-6 rad (a day of RAX-1 with its momentum wheel and the gravity gradient
+#: differs by 3.1 rad: that motion is too sensitive to be referenced over a day).
+REFERENCE_LIMIT = 1e-8
 #: A relative energy drift below this a step is round-off (LGVI's, torque free: 1.6e-16 a step over 1e5 steps).
 DRIFT_ROUND_OFF = 1e-15
 
@@ -209,6 +213,11 @@ class _Compiled:
         except RuntimeError as exc:
             raise ReferenceFailure(f"the compiled DOP853 over {duration:g} s: {exc}") from None
         self.difference = float(np.max(attitude_error(self.sol(t)[0], q_half)))
+        if not self.difference <= REFERENCE_LIMIT:
+            raise ReferenceFailure(
+                f"the compiled DOP853 at rtol {HORIZON_RTOL:g} differs from itself at half the tolerance by "
+                f"{self.difference:.2g} rad over {duration:g} s (at most {REFERENCE_LIMIT:g}): the motion is too "
+                "sensitive to be referenced that far, and nothing would be judged by it")
         self.note = (f"the compiled DOP853 at rtol {HORIZON_RTOL:g} ({self.sol.steps:,} steps), within "
                      f"{self.difference:.2g} rad of itself at half the tolerance over the {duration:g} s")
 
