@@ -309,7 +309,6 @@ DART_METHODS = {"dart-semi-implicit-euler": "DART's World on a FreeJoint: semi-i
                                             "each step"}
 if available("dart"):
     RUNNERS.update({name: Runner(name, "dart", 1, summary, _dart, line_style="--",
-                                 cannot=_engine_cannot("xcheck.engines.dart"),
                                  known=(findings.dart_truncated_exponential,))
                     for name, summary in DART_METHODS.items()})
 
@@ -344,7 +343,7 @@ DRAKE_METHODS = {
 if available("drake"):
     RUNNERS.update({name: Runner(name, "drake", order, summary,
                                  _integrator_of("xcheck.engines.drake", name.removeprefix("drake-")), line_style=":",
-                                 cannot=_engine_cannot("xcheck.engines.drake", name.removeprefix("drake-")), known=known)
+                                 known=known)
                     for name, (order, summary, known) in DRAKE_METHODS.items()})
 
 

@@ -3,11 +3,12 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 from ..base.errors import UsageError
 from . import Context, Outcome
-from .arguments import methods_arg
+from .arguments import methods_arg, steps_arg
 
 #: The steps of a horizon study when none are given: the scenario's three coarsest quick steps.
 DEFAULT_STEP_COUNT = 3
@@ -36,17 +37,13 @@ def _duration(text: str | None, scenario) -> float:
 
 
 def _steps(text: str | None, scenario, duration: float) -> list[float]:
-    from ..scenario import check_steps
-
-    if text is None:
-        if scenario.horizon and scenario.horizon[1]:
-            return list(scenario.horizon[1])
-        return [s for s in sorted(scenario.quick_steps, reverse=True) if s <= duration][:DEFAULT_STEP_COUNT]
-    try:
-        steps = [float(s) for s in text.split(",") if s.strip()]
-        return list(check_steps(steps, duration))
-    except ValueError as exc:
-        raise UsageError(f"--steps: {exc} (over {duration:g} s)") from None
+    """``--steps`` over the horizon's ``duration`` (:func:`~xcheck.commands.arguments.steps_arg`); default the
+    ``[horizon]`` steps, else the scenario's :data:`DEFAULT_STEP_COUNT` coarsest quick steps."""
+    if text is not None:
+        return steps_arg(text, dataclasses.replace(scenario, duration=duration))
+    if scenario.horizon and scenario.horizon[1]:
+        return list(scenario.horizon[1])
+    return [s for s in sorted(scenario.quick_steps, reverse=True) if s <= duration][:DEFAULT_STEP_COUNT]
 
 
 def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: str | None, json: str | None,

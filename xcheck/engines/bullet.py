@@ -117,9 +117,7 @@ def to_bullet(q, omega, V):
 
 def from_bullet(orientation, w_world, V):
     """Bullet's ``(orientation [x, y, z, w] of the principal frame, world angular velocity)`` -> our ``(q, omega)``."""
-    orientation = np.asarray(orientation, dtype=float)
-    qp = np.concatenate([orientation[..., 3:], orientation[..., :3]], axis=-1)
-    q = rot.quat_mul(qp, rot.quat_conj(rot.dcm_to_quat(V)))
+    q = rot.quat_mul(_wxyz(orientation), rot.quat_conj(rot.dcm_to_quat(V)))
     return q, rot.quat_rotate(rot.quat_conj(q), np.asarray(w_world, dtype=float))
 
 
@@ -216,6 +214,12 @@ def _gyrostat(p, client, gyro, orientation, w_world, V,
     return body
 
 
+def _wxyz(orientation) -> np.ndarray:
+    """Bullet's ``[x, y, z, w]`` rows as our ``[w, x, y, z]``."""
+    orientation = np.asarray(orientation, dtype=float)
+    return np.concatenate([orientation[..., 3:], orientation[..., :3]], axis=-1)
+
+
 def _xyzw(q) -> list:
     """Our quaternion ``[w, x, y, z]`` as Bullet's ``[x, y, z, w]`` list."""
     q = np.asarray(q, dtype=float)
@@ -306,7 +310,7 @@ def simulate(inertia, *, path: str, q0, omega0, dt: float, duration: float, torq
     if rates == "world":
         q, omega = from_bullet(orn[:k], ang[:k], V)
     else:
-        q, omega = from_bullet(orn[:k], np.zeros((k, 3)), V)[0], ang[:k]
+        q, omega = _wxyz(orn[:k]), ang[:k]  # the joint's quaternion, body -> world; the body rate
     method = f"pybullet-{path}"
     traj = until_non_finite(t, q, omega, method=method, dt=dt, extras={
         "evaluations": n, "torque_input": "held over each step" if torque is not None or motors else None})

@@ -25,7 +25,7 @@ from ..trajectory import Trajectory, check_initial_state, finite_rows, step_plan
 from .held_input import engine_torque
 from .mechanism import Top, pulse_torque
 
-__all__ = ["simulate", "free_flight", "to_dart", "from_dart", "from_dart_state", "cannot"]
+__all__ = ["simulate", "free_flight", "to_dart", "from_dart", "from_dart_state"]
 
 
 @functools.lru_cache(maxsize=1)
@@ -53,14 +53,34 @@ def from_dart_state(positions, velocities) -> tuple[np.ndarray, np.ndarray]:
     return q, rot.quat_rotate(rot.quat_conj(q), np.asarray(velocities, dtype=float)[..., 0:3])
 
 
-def _world(dart, dt: float, gravity, inertia, mass: float = 1.0):
-    """A World with one body on a FreeJoint: ``(world, skeleton, body)``."""
+def _empty_world(dart, dt: float, gravity):
+    """A World with ``gravity`` and the time step ``dt``."""
     world = dart.simulation.World()
     world.setGravity(np.asarray(gravity, dtype=float))
     world.setTimeStep(float(dt))
-    skeleton = dart.dynamics.Skeleton("xcheck-body")
+    return world
+
+
+def _free_skeleton(dart, name: str, mass: float, inertia):
+    """A skeleton of one body on a FreeJoint, its centre of mass at the joint: ``(skeleton, body)``."""
+    skeleton = dart.dynamics.Skeleton(name)
     _, body = skeleton.createFreeJointAndBodyNodePair(None, dart.dynamics.FreeJointProperties())
     body.setInertia(dart.dynamics.Inertia(float(mass), np.zeros(3), np.asarray(inertia, dtype=float)))
+    return skeleton, body
+
+
+def _free_state(dart, q0, omega0):
+    """A FreeJoint's ``(positions, velocities)`` for our ``(q0, omega0)``, at rest in translation at the origin."""
+    R0, w_world = to_dart(q0, omega0)
+    pose = dart.math.Isometry3()
+    pose.set_rotation(R0)
+    return dart.dynamics.FreeJoint.convertToPositions(pose), np.concatenate([w_world, np.zeros(3)])
+
+
+def _world(dart, dt: float, gravity, inertia, mass: float = 1.0):
+    """A World with one body on a FreeJoint: ``(world, skeleton, body)``."""
+    world = _empty_world(dart, dt, gravity)
+    skeleton, body = _free_skeleton(dart, "xcheck-body", mass, inertia)
     world.addSkeleton(skeleton)
     return world, skeleton, body
 
@@ -102,9 +122,7 @@ def _top(dart, world, top, q0, omega0):
 def _gyrostat(dart, world, gyro, q0, omega0):
     """A gyrostat in DART: the bus on a ``FreeJoint``, each wheel a child on a ``RevoluteJoint`` along its axis
     through the centre of mass, at its speed relative to the bus: ``(skeleton, bus, wheel joints)``."""
-    skeleton = dart.dynamics.Skeleton("xcheck-gyrostat")
-    _, bus = skeleton.createFreeJointAndBodyNodePair(None, dart.dynamics.FreeJointProperties())
-    bus.setInertia(dart.dynamics.Inertia(float(gyro.mass), np.zeros(3), np.asarray(gyro.inertia, dtype=float)))
+    skeleton, bus = _free_skeleton(dart, "xcheck-gyrostat", gyro.mass, gyro.inertia)
     joints = []
     for w in gyro.wheels:
         props = dart.dynamics.RevoluteJointProperties()
@@ -113,18 +131,10 @@ def _gyrostat(dart, world, gyro, q0, omega0):
         wheel.setInertia(dart.dynamics.Inertia(float(w.mass), np.zeros(3), w.inertia))
         joints.append(joint)
     world.addSkeleton(skeleton)
-    R0, w_world = to_dart(q0, omega0)
-    pose = dart.math.Isometry3()
-    pose.set_rotation(R0)
-    skeleton.setPositions(np.concatenate([dart.dynamics.FreeJoint.convertToPositions(pose),
-                                          np.zeros(len(gyro.wheels))]))
-    skeleton.setVelocities(np.concatenate([w_world, np.zeros(3), [w.speed for w in gyro.wheels]]))
+    positions, velocities = _free_state(dart, q0, omega0)
+    skeleton.setPositions(np.concatenate([positions, np.zeros(len(gyro.wheels))]))
+    skeleton.setVelocities(np.concatenate([velocities, [w.speed for w in gyro.wheels]]))
     return skeleton, bus, joints
-
-
-def cannot(mechanism) -> str | None:
-    """DART runs every body here: a free body, a top on its ball joint, a gyrostat's wheels on hinges."""
-    return None
 
 
 def simulate(inertia, *, q0, omega0, dt: float, duration: float, torque=None, mechanism=None) -> Trajectory:
@@ -137,22 +147,16 @@ def simulate(inertia, *, q0, omega0, dt: float, duration: float, torque=None, me
     dart = _dart()
     joints, top = [], isinstance(mechanism, Top)
     if top:
-        world = dart.simulation.World()
-        world.setGravity(np.asarray(mechanism.gravity, dtype=float))
-        world.setTimeStep(float(dt))
+        world = _empty_world(dart, dt, mechanism.gravity)
         skeleton, body = _top(dart, world, mechanism, q0, omega0)
     elif mechanism is not None:
-        world = dart.simulation.World()
-        world.setGravity(np.zeros(3))
-        world.setTimeStep(float(dt))
+        world = _empty_world(dart, dt, np.zeros(3))
         skeleton, body, joints = _gyrostat(dart, world, mechanism, q0, omega0)
     else:
         world, skeleton, body = _world(dart, dt, np.zeros(3), inertia)
-        R0, w_world = to_dart(q0, omega0)
-        pose = dart.math.Isometry3()
-        pose.set_rotation(R0)
-        skeleton.setPositions(dart.dynamics.FreeJoint.convertToPositions(pose))
-        skeleton.setVelocities(np.concatenate([w_world, np.zeros(3)]))
+        positions, velocities = _free_state(dart, q0, omega0)
+        skeleton.setPositions(positions)
+        skeleton.setVelocities(velocities)
     width = skeleton.getNumDofs()
     positions = np.empty((n + 1, width))  # the joints' state, read as it is (0.9 us a step; the body's transform and
     velocities = np.empty((n + 1, width))  # rate, 6.5 us): [rotation vector, ...], [R w or w, ...]

@@ -26,7 +26,7 @@ from ..trajectory import Trajectory, finite_rows, fixed_step_start, until_non_fi
 from .held_input import engine_torque
 from .mechanism import Top
 
-__all__ = ["simulate", "free_flight", "INTEGRATORS", "to_drake", "from_drake", "cannot"]
+__all__ = ["simulate", "free_flight", "INTEGRATORS", "to_drake", "from_drake"]
 
 #: Our names -> (Drake's integrator name for ResetIntegratorFromFlags, order, derivative evaluations a step).
 INTEGRATORS = {"explicit-euler": ("explicit_euler", 1, 1), "semi-explicit-euler": ("semi_explicit_euler", 1, 1),
@@ -234,11 +234,6 @@ def _run_gyrostat(gyro, *, integrator: str, q0, omega0, dt: float, duration: flo
     k = finite_rows(data)
     q, omega = from_drake(np.concatenate([data[:k, qs:qs + 4], data[:k, vs:vs + 3]], axis=1))
     return times, q, omega, error
-
-
-def cannot(integrator: str, mechanism) -> str | None:
-    """Drake runs every body here: a free body, a top on its ball joint, a gyrostat's wheels on hinges."""
-    return None
 
 
 def free_flight(*, integrator: str, mass: float, moments, omega0, v0, gravity, dt: float, nsteps: int):
