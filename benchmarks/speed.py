@@ -122,7 +122,7 @@ def score_lines(tmp: Path, repeat: int) -> list[tuple[str, float, str, bool]]:
 
 
 #: Issue 41: a day of RAX-1 in the orbit field at 0.1 s (864 000 steps) by each of these, the best of 3 after a warm run
-DAY_METHODS = ("formulation-2", "lie-rkmk4", "lie-lgvi")
+DAY_METHODS = ("formulation-2", "lie-rkmk4", "lie-lgvi", "split-strang")
 DAY_PROBE = """
 import sys, time
 from xcheck.integrators import integrate

@@ -127,7 +127,7 @@ def test_xcheck_league_writes_the_table_and_its_figure(tmp_path, monkeypatch, ca
     live = ((len(BULLET_PATHS) if available("pybullet") else 0) + available("dart")  # live engines' rows
             + (len(DRAKE_INTEGRATORS) if available("drake") else 0)
             + (len(EXUDYN_INTEGRATORS) if available("exudyn") else 0))
-    assert len(OURS) == 10  # our fixed-step methods but the printed algorithm 172
+    assert len(OURS) == 12  # our fixed-step methods but the printed algorithm 172
     assert doc["schema"] == "xcheck.league/1" and len(doc["rows"]) == 2 * 2 * (4 + len(OURS) + live)
 
 

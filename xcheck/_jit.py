@@ -36,7 +36,8 @@ __all__ = ["njit", "prange", "numba", "cache_root", "user_cache_home", "compiled
 PACKAGE = Path(__file__).resolve().parent
 #: The package files with ``cache=True`` functions, relative to the package folder.
 COMPILED_SOURCES = ("fields/kernel.py", *(f"integrators/kernels/{f}.py" for f in ("_variant", "registry", "helpers",
-                                                                                  "schemes", "lanes", "steps", "loops")),
+                                                                                  "freeflow", "schemes", "lanes",
+                                                                                  "steps", "loops")),
                     "integrators/dop853.py", "determination/methods.py", "engines/held_input.py",
                     "metrics.py")
 

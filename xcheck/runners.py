@@ -155,6 +155,26 @@ def _basilisk_clock(dt: float) -> str | None:
     return clock_step(dt)[1]
 
 
+#: Why a composition of Strang steps loses order on a torque that is not smooth in time.
+BACKWARDS = ("Yoshida's triple jump takes its torque up to 0.35 h outside each step (every splitting beyond order 2 "
+             "steps backwards in time: Sheng 1989, Suzuki 1991), across ")
+
+
+def _composition_order(torque: dict | None, model=None):
+    """``order_with`` of ``split-yoshida4``: 2 where a field is a table interpolated linearly in time (its pieces
+    meet in kinks), 3 where a motor's sin^2 pulse starts and stops (its second derivative jumps there); measured on
+    rax1-body-field and tumbler-three-wheels (2.00, 3.00)."""
+    from .fields import FIELDS, BodyFieldTable
+    from .torque_terms import torque_terms
+
+    if any(term.get("kind") == "magnetic" and issubclass(FIELDS[term["field"]], BodyFieldTable)
+           for term in torque_terms(torque)):
+        return 2, BACKWARDS + "the kinks of the field table's linear pieces: order 2"
+    if model is not None and _declares_pulses(model):
+        return 3, BACKWARDS + "the ends of the motor's sin² pulse, where its second derivative jumps: order 3"
+    return None, None
+
+
 def _basilisk_input_order(torque: dict | None, model=None):
     """The order Basilisk's held inputs leave with a scenario's torque and its model's motor pulses, and why
     (:func:`xcheck.engines.basilisk.input_order`, which the run itself reports)."""
@@ -216,7 +236,7 @@ BASILISK_METHODS = {
 RUNNERS: dict[str, Runner] = {
     name: Runner(name, "xcheck", m.expected_order, m.summary, _ours(name),
                  run_batch=_ours_batch(name) if m.kernel is not None else None, adaptive=m.adaptive,
-                 demonstration=m.demonstration)
+                 demonstration=m.demonstration, order_with=_composition_order if name == "split-yoshida4" else None)
     for name, m in METHODS.items()}
 RUNNERS.update({
     f"mujoco-{i}": Runner(f"mujoco-{i}", "mujoco", order, summary, _mujoco(i), agreement=(i == "rk4"), line_style="--",

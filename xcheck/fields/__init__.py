@@ -30,7 +30,7 @@ Adding a field model: a :class:`Field` subclass declaring ``name``, ``keys``, ``
 from __future__ import annotations
 
 from .igrf import IGRFField
-from .kernel import MU0, torque_eval, torque_needs_attitude
+from .kernel import MU0, torque_eval, torque_needs_attitude, torque_needs_rate
 from .models import (
                      BodyFieldTable,
                      ConstantTorque,
@@ -61,6 +61,7 @@ __all__ = [
     "SumTorque", "GravityGradientTorque", "WheelsTorque", "SolarPressureTorque", "AerodynamicTorque",
     "BodyFieldTable",
     "WorldFieldTable", "UniformField", "OrbitDipoleField", "IGRFField", "torque_eval", "torque_needs_attitude",
+    "torque_needs_rate",
     "magnetic_torque", "load_field_table", "write_field_table", "orbit_position", "RAX1_ORBIT",
     "IGRF2010_DIPOLE_NT", "SEED004_INITIAL_TORQUE", "nearest_achievable_torque", "rax1_orbit_phase_residual",
     "rax1_synthetic_body_table", "write_rax1_body_table",

@@ -277,6 +277,19 @@ def torque_needs_attitude(kind, P):
     return kind == GRAVITY_GRADIENT or (kind == SUM and P[1] != 0.0)  # a sum says it in its header (no loop here)
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def torque_needs_rate(kind, P):
+    """Whether the model's torque depends on the body rate: a gyrostat's wheels, alone or in a sum (the splitting
+    methods' last half kick is then implicit in the rate, else one evaluation)."""
+    if kind == WHEELS:
+        return True
+    if kind == SUM:
+        for i in range(int(P[0])):
+            if int(P[2 + 3 * i]) == WHEELS:
+                return True
+    return False
+
+
 @njit(cache=True, error_model="numpy")
 def torque_many(kind, P, T, t, q, w, out):
     """:func:`torque_eval` at every row: times ``t`` (n,), attitudes ``q`` (n, 4), rates ``w`` (n, 3) -> ``out``

@@ -42,9 +42,16 @@ class Method:
     @property
     def stages(self) -> int:
         """Right-hand-side evaluations a step (the commutator-free step has four whatever the tableau; the variational
-    integrator evaluates the torque at the step's start and end, once more to confirm the end's)."""
+    integrator evaluates the torque at the step's start and end, once more to confirm the end's; a splitting once a
+    Strang step, its end's being the next start's)."""
         step = K.SCHEMES[self.kernel].step
-        return 4 if step == "cf4" else 2 if step == "lgvi" else self.tableau.stages
+        return {"cf4": 4, "lgvi": 2, "split2": 1, "split4": 3}.get(step, self.tableau.stages)
+
+    @property
+    def exact_torque_free(self) -> bool:
+        """Whether its step is the exact free flow where there is no torque (a splitting's): no order to measure
+        there."""
+        return self.kernel is not None and K.SCHEMES[self.kernel].step in ("split2", "split4")
 
     @property
     def encode(self):
@@ -81,6 +88,12 @@ METHODS: dict[str, Method] = {m.name: m for m in [
     Method("lie-lgvi", K.LGVI, 2, "Lie group variational integrator: implicit, symplectic, the world momentum kept "
            "torque free, the energy error bounded (Newton on the step's Cayley vector)",
            "Lee, Leok & McClamroch 2005; forced form, 2007 eq. 50-53"),
+    Method("split-strang", K.SPLIT2, 2, "Strang splitting: half torque kicks around the exact free rigid-body flow "
+           "(Jacobi elliptic functions); symplectic under a potential, exact torque free",
+           "Celledoni, Fassò, Säfström & Zanna 2008 (ACM TOMS Algorithm 903)"),
+    Method("split-yoshida4", K.SPLIT4, 4, "Yoshida's triple jump of the Strang splitting around the exact free flow: "
+           "order 4, symplectic under a potential, exact torque free",
+           "Celledoni et al. 2008 §5; Yoshida 1990"),
     Method("scipy-rk45", None, None, "scipy solve_ivp RK45 (its defaults rtol 1e-3, atol 1e-6: seed 001's choice), "
            "sampled on the output grid", "seed 001, appendix A (its own choice)", tolerances=(1e-3, 1e-6)),
 ]}

@@ -38,6 +38,8 @@ ROTVEC       q_ref(4), phi(3), w(3)                  seed 000 §1.5.2 (chart re-
 MRP          s(3), w(3)                              Schaub & Junkins (Basilisk's attitude: shadow set
                                                      when |s| > 1 after each step)
 LGVI         p(4), w(3)                              Lee, Leok & McClamroch 2005 (implicit, its own step)
+SPLIT2/4     p(4), w(3)                              Celledoni, Fassò, Säfström & Zanna 2008 (torque kicks
+                                                     around the exact free flow; Strang, Yoshida's triple jump)
 ===========  ======================================  =============================================
 
 How it is fast: numba compiles it (``cache=True``: once per user and release, into the folder of
@@ -74,10 +76,11 @@ VARIANT = globals().get("VARIANT", "compiled")
 from .lanes import LANES  # noqa: E402
 from .loops import entry_points, run_many, run_one, scratch, step_of  # noqa: E402
 from .registry import NONFINITE, NOT_CONVERGED, OK, SCHEMES, SINGULAR, Scheme, declare, layout, size_of  # noqa: E402
-from .schemes import CF4, DCM, EULER, F1, F2, FIRST, GIBBS, LGVI, LIE, MRP, ROTVEC, STATE_SIZE, WORK_SIZE  # noqa: E402
+from .schemes import (CF4, DCM, EULER, F1, F2, FIRST, GIBBS, LGVI, LIE, MRP, ROTVEC, SPLIT2, SPLIT4,  # noqa: E402
+                      STATE_SIZE, WORK_SIZE)
 from .steps import RK4_STEP, rk_step_for, rk_step_source  # noqa: E402
 
 __all__ = ["VARIANT", "LANES", "entry_points", "run_many", "run_one", "scratch", "step_of", "NONFINITE",
-           "NOT_CONVERGED", "LGVI", "OK",
+           "NOT_CONVERGED", "LGVI", "SPLIT2", "SPLIT4", "OK",
            "SCHEMES", "SINGULAR", "Scheme", "declare", "layout", "size_of", "CF4", "DCM", "EULER", "F1", "F2", "FIRST",
            "GIBBS", "LIE", "MRP", "ROTVEC", "STATE_SIZE", "WORK_SIZE", "RK4_STEP", "rk_step_for", "rk_step_source"]

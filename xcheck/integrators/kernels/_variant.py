@@ -37,6 +37,9 @@ if PYTHON_MODE:  # the interpreted twin: same code, Python torque callables
     def torque_needs_attitude(kind, P):
         return True
 
+    def torque_needs_rate(kind, P):
+        return True
+
     numba = overload = None
 
 else:
@@ -61,3 +64,4 @@ else:
     prange = numba.prange
     torque_eval = fields.torque_eval  # inlined (its evaluators are calls)
     torque_needs_attitude = fields.torque_needs_attitude
+    torque_needs_rate = fields.torque_needs_rate

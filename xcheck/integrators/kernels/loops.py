@@ -11,7 +11,8 @@ from ._variant import PYTHON_MODE, ijit, jit, jit_nogil, pjit, prange
 from .registry import NONFINITE, OK, SCHEMES
 from .schemes import STATE_SIZE, WORK_SIZE
 from .lanes import LANES, LANES_OF
-from .steps import RK4_STEP, RK_STEPS, after_step, before_step, cf4_step, lgvi_step, rk_step_for
+from .steps import (RK4_STEP, RK_STEPS, after_step, before_step, cf4_step, lgvi_step, rk_step_for, split2_step,
+                    split4_step)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -70,7 +71,8 @@ def _entry_points(scheme: int, step: str):
     written out here (a closure would miss the cache on every run, and ``numba.literally`` re-types every call: 67
     ms)."""
     ident = SCHEMES[scheme].name.replace("-", "_") + "__" + step
-    namespace = {**globals(), **RK_STEPS, "cf4_step": cf4_step, "lgvi_step": lgvi_step, "prange": prange}
+    namespace = {**globals(), **RK_STEPS, "cf4_step": cf4_step, "lgvi_step": lgvi_step, "split2_step": split2_step,
+                 "split4_step": split4_step, "prange": prange}
     exec(compile(f"def run_{ident}(a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev):\n"
                  f"    return run({scheme}, {step}, a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev)\n",
                  __file__, "exec"), namespace)
@@ -97,9 +99,10 @@ def entry_points(scheme: int, step: str):
 
 
 def step_of(scheme: int, tableau, dexp_A=None) -> str:
-    """The step function's name of ``scheme`` on ``tableau``: CF4's or the LGVI's own step, or the tableau's generated
-    RK step."""
-    own = {"cf4": "cf4_step", "lgvi": "lgvi_step"}.get(SCHEMES[scheme].step)
+    """The step function's name of ``scheme`` on ``tableau``: CF4's, the LGVI's or a splitting's own step, or the
+    tableau's generated RK step."""
+    own = {"cf4": "cf4_step", "lgvi": "lgvi_step", "split2": "split2_step", "split4": "split4_step"}.get(
+        SCHEMES[scheme].step)
     return own if own is not None else rk_step_for(tableau, dexp_A)
 
 

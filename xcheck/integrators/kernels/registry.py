@@ -51,7 +51,8 @@ class Scheme:
     algorithm 172 differs; ``tk, tP, tT`` the torque model; ``axes``, ``sing_tol`` for Euler angles; ``work``).
     ``before_step`` and ``after_step`` (inputs among :data:`HOOK_ARGS`) change ``y`` between steps, exactly (the order
     is unaffected); ``step`` is ``"rk"`` (the stage loop generated for the method's tableau, :func:`rk_step_for`),
-    ``"cf4"`` (:func:`cf4_step`) or ``"lgvi"`` (:func:`lgvi_step`, implicit: its own Newton iterations);
+    ``"cf4"`` (:func:`cf4_step`), ``"lgvi"`` (:func:`lgvi_step`, implicit: its own Newton iterations), ``"split2"`` or
+    ``"split4"`` (:func:`split2_step`, :func:`split4_step`: torque kicks around the exact free flow);
     ``state`` is the :func:`layout` of ``y``, whose part ``held`` (the first, when named: a reference quaternion) is
     constant within a step; ``work`` the layout of the scratch its derivative, hooks and step share (the parts each
     one uses, named; one that needs none: None). ``encode(q0 (..., 4), w0 (..., 3), seq) -> y0 (..., size)`` and
@@ -89,7 +90,7 @@ SCHEMES: list = []
 
 def declare(scheme: Scheme) -> int:
     """Register ``scheme``; returns its id (the compile-time constant of the entry points)."""
-    if scheme.step not in ("rk", "cf4", "lgvi"):
+    if scheme.step not in ("rk", "cf4", "lgvi", "split2", "split4"):
         raise ValueError(f"{scheme.name}: unknown step {scheme.step!r}")
     if scheme.held is not None and scheme.held != scheme.state._fields[0]:
         raise ValueError(f"{scheme.name}: the held part {scheme.held!r} must be the state's first part")

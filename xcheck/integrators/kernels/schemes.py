@@ -450,11 +450,30 @@ LGVI_STATE = layout(p=4, w=3)
 #: the step's scratch (:func:`xcheck.integrators.kernels.steps.lgvi_step`): the torques at the start, the end and
 #: the end's next iterate, the body momentum, the implicit equation's left side, its Cayley vector, residual,
 #: Jacobian (row-major) and Newton update, the step's rotation and the end's attitude, F^T (Pi + h/2 M), the end's
-#: rate and a vector of scratch. Its first part is also Formulation II's derivative's (the scheme's, never called in a step).
+#: rate and a vector of scratch. Its first part is also Formulation II's derivative's (the scheme's, never called in a
+#: step).
 LGVI_WORK = layout(M0=3, M1=3, M2=3, Pi=3, g=3, f=3, G=3, jac=9, df=3, qf=4, qn=4, base=3, wn=3, tmp=3)
 
 LGVI = declare(Scheme("lgvi", state=LGVI_STATE, deriv=deriv_formulation2, step="lgvi", encode=_enc_f2,
                       decode=_dec_f2, work=LGVI_WORK))
+
+
+# ------------------------------------------------------------------------------------------------
+# SPLIT: torque kicks around the exact free flow (Celledoni, Fassò, Säfström & Zanna 2008): their own steps
+# ------------------------------------------------------------------------------------------------
+SPLIT_STATE = layout(p=4, w=3)
+#: the steps' scratch (:func:`xcheck.integrators.kernels.steps.split_step`): Formulation II's derivative's first
+#: (the scheme's, never called in a step); whether the principal frame is made, its scratch, axes and moments; the
+#: AGM's ratios; the body momentum after the first kick and after the flow, the flow's rotation, the end's attitude,
+#: the end's torque and its next iterate, the end's rate; the last step's end (valid, q, w, its body momentum) and
+#: its torque (valid, t, value), which the next step starts from when nothing moved.
+SPLIT_WORK = layout(tau=3, ready=1, A=9, V=9, J=3, ratios=16, Pi=3, Pe=3, dq=4, qn=4, M1=3, M2=3, wn=3, cached=1, cq=4,
+                    cw=3, cP=3, ctorque=1, ct=1, cM=3)
+
+SPLIT2 = declare(Scheme("split-2", state=SPLIT_STATE, deriv=deriv_formulation2, step="split2", encode=_enc_f2,
+                        decode=_dec_f2, work=SPLIT_WORK))
+SPLIT4 = declare(Scheme("split-4", state=SPLIT_STATE, deriv=deriv_formulation2, step="split4", encode=_enc_f2,
+                        decode=_dec_f2, work=SPLIT_WORK))
 
 
 #: The declarations' sizes by scheme id, read from the registry: compile-time constants of the shared loops (the

@@ -1,6 +1,7 @@
 """The steps: a scheme's derivative and hooks chosen at compile time (:func:`deriv`, :func:`before_step`,
 :func:`after_step`), the Runge-Kutta stage loop generated from each tableau's exact fractions (:func:`rk_step_for`),
-the commutator-free step (:func:`cf4_step`) and the Lie group variational integrator's (:func:`lgvi_step`)."""
+the commutator-free step (:func:`cf4_step`), the Lie group variational integrator's (:func:`lgvi_step`) and the
+splitting methods' (:func:`split2_step`, :func:`split4_step`)."""
 
 from __future__ import annotations
 
@@ -9,10 +10,11 @@ import inspect
 import numpy as np
 
 from ..tableau import RK4
-from ._variant import PYTHON_MODE, ijit, jit, numba, overload, torque_eval
+from ._variant import PYTHON_MODE, ijit, jit, numba, overload, torque_eval, torque_needs_rate
+from .freeflow import free_flow, principal_frame
 from .registry import NOT_CONVERGED, OK, SCHEMES
 from .helpers import cross, qmul, quat_exp
-from .schemes import CF4_WORK, FIRST, LGVI_STATE, LGVI_WORK, LIE_STATE, STATE_SIZE  # noqa: F401 (read by the generated steps' source, and the schemes declared first)
+from .schemes import CF4_WORK, FIRST, LGVI_STATE, LGVI_WORK, LIE_STATE, SPLIT_STATE, SPLIT_WORK, STATE_SIZE  # noqa: F401 (read by the generated steps' source, and the schemes declared first)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -346,4 +348,96 @@ def lgvi_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, s
         y[i] = qn[i] / n
     for i in range(3):
         y[4 + i] = Iinv[i, 0] * tmp[0] + Iinv[i, 1] * tmp[1] + Iinv[i, 2] * tmp[2]
+    return OK
+
+
+# ------------------------------------------------------------------------------------------------
+# splitting with the exact free flow (Celledoni, Fassò, Säfström & Zanna 2008)
+# ------------------------------------------------------------------------------------------------
+#: The triple jump's fractions of the step (Yoshida 1990, eq. 5.4): three Strang steps of 4th order together.
+YOSHIDA4 = (1.0 / (2.0 - 2.0 ** (1.0 / 3.0)), 1.0 - 2.0 / (2.0 - 2.0 ** (1.0 / 3.0)), 1.0 / (2.0 - 2.0 ** (1.0 / 3.0)))
+#: The last half kick's fixed-point iterations at most, where the torque depends on the rate.
+SPLIT_FIXED_POINT = 50
+
+
+@ijit
+def strang(t, y, h, I, Iinv, tk, tP, tT, work):
+    """One Strang step (Celledoni, Fassò, Säfström & Zanna 2008, §5; ``Pi = J w`` the body momentum, ``M`` the
+    body torque)::
+
+        Pi <- Pi + h/2 M(t, q, w)                       (the kick: q held)
+        (q, Pi) <- the exact free flow over h           (:func:`.freeflow.free_flow`)
+        Pi <- Pi + h/2 M(t + h, q, J^-1 Pi_end)          (implicit in the end's rate, the first kick's adjoint)
+
+    symmetric, so second order; symplectic where the torque has a potential (gravity, the gravity gradient), and
+    torque free the exact flow itself. A torque that does not depend on the rate is evaluated once a step: the
+    end's is the next start's. The end's body momentum is kept too and is the next start's (``J^-1`` then ``J`` again
+    rounds it the same way at every step: a drift of 1e-16 a step in |Pi|, 1e-10 rad in the gyroscope's phase after
+    41 000 steps). Both are kept in ``work`` with where they were taken; a start elsewhere computes them again."""
+    S, W = SPLIT_STATE, SPLIT_WORK
+    q, w = y[S.p], y[S.w]
+    V, J, ratios, Pi, Pe, dq, qn = work[W.V], work[W.J], work[W.ratios], work[W.Pi], work[W.Pe], work[W.dq], work[W.qn]
+    M0, M1, M2, wn, cq, cw, cP = work[W.cM], work[W.M1], work[W.M2], work[W.wn], work[W.cq], work[W.cw], work[W.cP]
+    if work[W.ready][0] == 0.0:
+        principal_frame(I, work[W.A], V, J)
+        work[W.ready][0] = 1.0
+    same = (work[W.cached][0] != 0.0 and q[0] == cq[0] and q[1] == cq[1] and q[2] == cq[2] and q[3] == cq[3]
+            and w[0] == cw[0] and w[1] == cw[1] and w[2] == cw[2])
+    if not (same and work[W.ctorque][0] != 0.0 and work[W.ct][0] == t):
+        torque_eval(tk, tP, tT, t, q, w, M0)
+    for i in range(3):
+        Pi[i] = (cP[i] if same else I[i, 0] * w[0] + I[i, 1] * w[1] + I[i, 2] * w[2]) + 0.5 * h * M0[i]
+    free_flow(Pi, h, V, J, ratios, Pe, dq)
+    qmul(q, dq, qn)  # q ⊗ (dq - 1): q + it is q ⊗ dq, rounded relative to the step's turn
+    for i in range(4):
+        qn[i] += q[i]
+    n = np.sqrt(qn[0] * qn[0] + qn[1] * qn[1] + qn[2] * qn[2] + qn[3] * qn[3])
+    for i in range(4):
+        q[i] = qn[i] / n
+    for i in range(3):
+        wn[i] = Iinv[i, 0] * Pe[0] + Iinv[i, 1] * Pe[1] + Iinv[i, 2] * Pe[2]
+    torque_eval(tk, tP, tT, t + h, q, wn, M1)
+    rate = torque_needs_rate(tk, tP)
+    if rate:
+        for _ in range(SPLIT_FIXED_POINT):
+            for i in range(3):
+                Pi[i] = Pe[i] + 0.5 * h * M1[i]
+            for i in range(3):
+                wn[i] = Iinv[i, 0] * Pi[0] + Iinv[i, 1] * Pi[1] + Iinv[i, 2] * Pi[2]
+            torque_eval(tk, tP, tT, t + h, q, wn, M2)
+            change = abs(M2[0] - M1[0]) + abs(M2[1] - M1[1]) + abs(M2[2] - M1[2])
+            for i in range(3):
+                M1[i] = M2[i]
+            if change <= 4e-16 * (abs(M1[0]) + abs(M1[1]) + abs(M1[2])):
+                break
+    for i in range(3):
+        cP[i] = Pe[i] + 0.5 * h * M1[i]
+    for i in range(3):
+        w[i] = Iinv[i, 0] * cP[0] + Iinv[i, 1] * cP[1] + Iinv[i, 2] * cP[2]
+    work[W.cached][0] = 1.0
+    work[W.ctorque][0] = 0.0 if rate else 1.0
+    work[W.ct][0] = t + h
+    for i in range(4):
+        cq[i] = q[i]
+    for i in range(3):
+        cw[i] = w[i]
+        M0[i] = M1[i]
+
+
+@ijit
+def split2_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, sing_tol, work):
+    """The Strang splitting around the exact free flow (:func:`strang`): order 2."""
+    strang(t, y, h, I, Iinv, tk, tP, tT, work)
+    return OK
+
+
+@ijit
+def split4_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, sing_tol, work):
+    """Yoshida's triple jump of :func:`strang` steps (fractions :data:`YOSHIDA4`, the middle one backwards in
+    time): order 4, symmetric and, with a potential torque, symplectic (Yoshida 1990; Celledoni et al. 2008 §5)."""
+    tc = t
+    for k in range(3):
+        hk = YOSHIDA4[k] * h
+        strang(tc, y, hk, I, Iinv, tk, tP, tT, work)
+        tc = tc + hk
     return OK
