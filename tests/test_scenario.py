@@ -19,7 +19,8 @@ def test_every_bundled_scenario_loads():
     assert names == ["boxes-complex", "boxes-simple", "cubesat-parts-orbit-field", "gyroscope-near-singular",
                      "gyroscope-nonsingular",
                      "gyroscope-singular", "gyrostat-axisymmetric", "heavy-top-looping", "heavy-top-near-vertical",
-                     "heavy-top", "nesc-tumbling-brick", "rax1-body-field", "rax1-momentum-bias", "rax1-orbit-field",
+                     "heavy-top", "nesc-tumbling-brick", "rax1-body-field", "rax1-field-gravity-gradient",
+                     "rax1-momentum-bias", "rax1-orbit-field",
                      "tumbler-intermediate-axis", "tumbler-three-wheels"]
     for n in names:
         sc = resolve_scenario(n)
