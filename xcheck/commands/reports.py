@@ -20,14 +20,14 @@ class ReportOutcome(Outcome):
 
 
 def report(*, scenarios: list[str], out: str, quick: bool, bench: bool, timings: bool, trajectories: bool,
-           with_engines: str | None, workers: int | None, ctx: Context) -> ReportOutcome:
+           with_engines: str | None, workers: int | None, ctx: Context, horizon: bool = False) -> ReportOutcome:
     """The cross-check report of ``scenarios`` (every bundled one when empty) into ``out/<stamp>/``."""
     from ..report.build import build_report
 
     t0 = time.perf_counter()
     add_engines(with_engines)
     built = build_report(scenarios, out, quick=quick, workers=workers, run_bench=bench, trajectories=trajectories,
-                         progress=ctx.progress(), written=ctx.written.append, started=ctx.started)
+                         progress=ctx.progress(), written=ctx.written.append, started=ctx.started, horizons=horizon)
     if timings:
         ctx.note(built.timings())
     for st in built.studies:

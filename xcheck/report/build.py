@@ -77,7 +77,8 @@ class ReportOutcome:
 
 def build_report(scenarios, out, *, quick: bool = False, workers: int | None = None, bench=None,
                  run_bench: bool = False, trajectories: bool = False, sections=None, progress=None,
-                 written: Callable[[Path], None] | None = None, started: float | None = None) -> ReportOutcome:
+                 written: Callable[[Path], None] | None = None, started: float | None = None,
+                 horizons: bool = False) -> ReportOutcome:
     """The report of ``scenarios`` into ``out``: :class:`~xcheck.scenario.Scenario` objects, or the names and
     files to resolve (:func:`resolve_scenarios`: done while the workers start, as is the check of ``out``).
 
@@ -87,7 +88,8 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
     report (:class:`~xcheck.report.render.Section`), or a function that makes them from the finished, read-only
     results document (the nightly's History), see :func:`xcheck.report.render.write_report`. ``written(folder)`` is
     called as soon as the folder is complete (an interrupt after it has a complete report). ``started``: the
-    first mark (the command's start)."""
+    first mark (the command's start). ``horizons``: the horizon studies of the scenarios with a ``[horizon]`` table
+    (:mod:`xcheck.report.horizons`), a section of their own."""
     from ..base.pool import worker_pool
     from .render import write_report
 
@@ -108,7 +110,8 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
         check_output_dir(out, "--out")
         marks.append(("scenarios read", time.perf_counter()))
         figures = _Figures(pool, quick) if pool is not None else None
-        begun = [(make, start(scenarios, pool, quick)) for start, make in BUILT_IN]  # their work beside the studies
+        begun = [(make, start(scenarios, pool, quick, progress)) for start, make in BUILT_IN  # beside the studies
+                 if horizons or start is not _start_horizons]
         studies = run_studies(scenarios, quick=quick, progress=progress, pool=pool, workers=workers,
                               on_study=figures.submit if figures else None, here=pool is not None,
                               idle=figures.draw_one_here if figures else None)
@@ -174,7 +177,7 @@ class _Figures:
         return True
 
 
-def _start_determinations(scenarios, pool, quick: bool) -> dict:
+def _start_determinations(scenarios, pool, quick: bool, progress=None) -> dict:
     """Each scenario's ``[determination]`` study with its figures, started in the pool (or run here)."""
     from .determination import determination_job
 
@@ -200,7 +203,7 @@ def determination_section(determinations) -> Section:
                    passed=rep["passed"] and all(d["passed"] for d in data))
 
 
-def _start_league(scenarios, pool, quick: bool):
+def _start_league(scenarios, pool, quick: bool, progress=None):
     """The boxes benchmark's league rows, started in the pool (or run here) when a bundled boxes scenario is in the
     report: ``(steps, [future or rows])``; None otherwise."""
     from ..league.boxes import CASES
@@ -230,11 +233,26 @@ def _league_section(league) -> Section | None:
                    steps)
 
 
-#: The report's built-in sections, in their order: ``(start, make)`` — ``start(scenarios, pool, quick)`` submits
+def _start_horizons(scenarios, pool, quick: bool, progress=None) -> tuple:
+    """The ``[horizon]`` scenarios' horizon studies: run once the studies are in, in the pool and here
+    (:func:`xcheck.report.horizons.start_horizons`)."""
+    from .horizons import start_horizons
+
+    return start_horizons(scenarios, pool, progress)
+
+
+def _horizon_section(started: list):
+    from .horizons import horizon_section
+
+    return horizon_section(started) if started[0] else None
+
+
+#: The report's built-in sections, in their order: ``(start, make)`` — ``start(scenarios, pool, quick, progress)`` submits
 #: their work beside the studies (None where no scenario asks for it), ``make(work)`` is the
 #: :class:`~xcheck.report.render.Section` once it is in (None: not in this report). Every section's verdict joins the
 #: report's by the one rule of :attr:`ReportOutcome.outcome`; a new one is an entry here.
-BUILT_IN = ((_start_determinations, _determination_section), (_start_league, _league_section))
+BUILT_IN = ((_start_horizons, _horizon_section), (_start_determinations, _determination_section),
+            (_start_league, _league_section))
 
 
 def _all_sections(first, sections):

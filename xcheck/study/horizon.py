@@ -19,7 +19,7 @@ from ..rotations import attitude_error, quat_rotate
 from ..runners import RUNNERS
 from ..scenario import Scenario
 
-__all__ = ["HorizonLine", "HorizonResult", "run_horizon", "growth_exponent", "drift_law", "time_within",
+__all__ = ["HorizonLine", "HorizonResult", "run_horizon", "horizon_methods", "growth_exponent", "drift_law", "time_within",
            "log_indices", "THRESHOLDS", "LOG_SAMPLES", "UNIFORM_SAMPLES"]
 
 #: The attitude errors [rad] whose first crossing a horizon study reports.
@@ -146,6 +146,13 @@ def _energy(ctx, q, omega) -> np.ndarray | None:
     return None
 
 
+def horizon_methods() -> list:
+    """The methods a horizon study runs by default: ours and MuJoCo's fixed-step methods (not the printed algorithm
+    172, a demonstration)."""
+    return [m for m, r in RUNNERS.items() if r.engine in ("xcheck", "mujoco") and not r.adaptive
+            and r.demonstration is None]
+
+
 def run_horizon(scenario: Scenario, *, duration: float, steps, methods=None, progress=None) -> HorizonResult:
     """Every method of ``methods`` (default: ours and MuJoCo's fixed-step methods) at each of ``steps`` over
     ``duration`` s, against the scenario's reference over that duration (:class:`HorizonLine` each)."""
@@ -168,8 +175,7 @@ def run_horizon(scenario: Scenario, *, duration: float, steps, methods=None, pro
             raise ReferenceFailure(f"the scenario's {long.reference} reference over {duration:g} s: {exc}") from None
         note = f"the scenario's {long.reference} reference"
     if methods is None:
-        methods = [m for m, r in RUNNERS.items() if r.engine in ("xcheck", "mujoco") and not r.adaptive
-                   and r.demonstration is None]
+        methods = horizon_methods()
     lines = []
     total = len(methods) * len(steps)
     for k, (method, dt) in enumerate((m, float(dt)) for m in methods for dt in steps):
