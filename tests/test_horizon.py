@@ -4,12 +4,14 @@ secularly on the heavy top, the variational integrator's stays bounded; the cros
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
 import pytest
 
 from xcheck.scenario import resolve_scenario
+from xcheck.study.context import run_context
 from xcheck.study.horizon import drift_law, growth_exponent, log_indices, run_horizon, time_within
 
 
@@ -182,3 +184,51 @@ def test_a_day_in_the_field_and_the_gravity_gradient_rk4s_error_grows_faster_tha
     assert yoshida.final_error == pytest.approx(5.35e-4, rel=0.03) and yoshida.within[1e-3] == 86400.0
     assert abs(yoshida.growth - 1.0) < 0.1 and abs(strang.growth - 1.0) < 0.1
     assert strang.final_error == pytest.approx(0.73, rel=0.03)
+
+
+def test_the_engines_join_a_horizon_within_their_step_budget():
+    """Every fixed-step method installed runs by default; an engine other than MuJoCo within ENGINE_STEPS steps a
+    method (the gyroscope's hour: 230 400 steps at 1/64 s, its only step), the rest said; one that cannot represent
+    the body (EXUDYN's wheels) said too. Ours and MuJoCo's at every step."""
+    from xcheck.runners import RUNNERS
+    from xcheck.study.horizon import ENGINE_STEPS, horizon_methods, horizon_plan
+
+    sc = resolve_scenario("gyroscope-nonsingular")
+    methods = horizon_methods()
+    assert {"lie-rkmk4", "split-yoshida4", "mujoco-rk4"} <= set(methods)
+    assert "lie-thesis-172" not in methods and not any(RUNNERS[m].adaptive for m in methods)
+    steps = [1 / 64, 1 / 128, 1 / 256]
+    plan, left = horizon_plan(sc, methods, steps, 3600.0)
+    for m in methods:
+        got = [dt for name, dt in plan if name == m]
+        if RUNNERS[m].engine in ("xcheck", "mujoco"):
+            assert got == steps, m
+        else:
+            assert got == [1 / 64] and 230_400 <= ENGINE_STEPS < 3 * 230_400, m
+    engines = [m for m in methods if RUNNERS[m].engine not in ("xcheck", "mujoco")]
+    if engines:
+        assert any("step budget" in line and "0.0078125, 0.00390625 s" in line for line in left)
+    wheels = resolve_scenario("tumbler-three-wheels")
+    plan, left = horizon_plan(wheels, methods, [0.0625], 100.0)
+    for m in (m for m in methods if m.startswith("exudyn-")):
+        assert m not in {name for name, _ in plan} and any(line.startswith(m) for line in left)
+
+
+def test_an_engine_whose_quaternion_collapses_fails_its_run_saying_when():
+    """Drake's additive quaternion under explicit Euler grows until its norm overflows (the gyroscope at 1/64 s: at
+    740 s); normalised it is zero, no rotation. The run ends at the last good state and fails saying when (it raised
+    deep inside the conversion). Pure part: quaternion_rows stops at a zero or an overflowing quaternion."""
+    from xcheck.trajectory import quaternion_rows
+
+    q = np.array([[1.0, 0, 0, 0], [2.0, 0, 0, 0], [1e200, 1e200, 0, 0], [0.0, 0, 0, 0]])
+    assert quaternion_rows(q) == 2 and quaternion_rows(q[[0, 1, 3]]) == 2 and quaternion_rows(q[:2]) == 2
+    from xcheck.engines import available
+
+    if not available("drake"):
+        pytest.skip("Drake is not installed (the extra engines): its run is not tested here")
+    from xcheck.runners import RUNNERS
+
+    sc = resolve_scenario("gyroscope-nonsingular")
+    ctx = run_context(dataclasses.replace(sc, duration=1000.0))
+    tr = RUNNERS["drake-explicit-euler"].run(ctx, 1 / 64)
+    assert tr.status == "failed" and "non-finite at t = 739.9" in tr.message and 700 < tr.t[-1] < 740

@@ -67,13 +67,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("horizon", help="one scenario over a long duration: how each method's errors grow")
     p.add_argument("scenario", help="a bundled scenario name or a scenario .toml file")
-    p.add_argument("--duration", help="how long: seconds, or with a unit (5400s, 90min, 1h, 1d); default 100 times "
-                                      "the scenario's duration")
-    p.add_argument("--steps", help="comma-separated steps in seconds (default: the scenario's three coarsest quick "
-                                   "steps)")
-    p.add_argument("--methods", help="comma-separated methods (default: ours and MuJoCo's fixed-step methods)")
+    p.add_argument("--duration", help="how long: seconds, or with a unit (5400s, 90min, 1h, 1d); default the "
+                                      "scenario's [horizon], else 100 times its duration")
+    p.add_argument("--steps", help="comma-separated steps in seconds (default: the scenario's [horizon] steps, else "
+                                   "its three coarsest quick steps)")
+    p.add_argument("--methods", help="comma-separated methods (default: every fixed-step method installed, ours, "
+                                     "MuJoCo's and the engines', each engine's within a step budget)")
     p.add_argument("--json", metavar="PATH", help="write the results (schema xcheck.horizon/1)")
     p.add_argument("--out", metavar="DIR", help="write the figure (SCENARIO-horizon.png) into DIR")
+    p.add_argument("--workers", type=int, default=None,
+                   help="processes, this one included (default: 2 where there are two CPUs or more; 1: here only)")
 
     p = sub.add_parser("score", help="score a trajectory file of any simulator against a scenario's reference")
     p.add_argument("file", metavar="FILE", help="a CSV of one sample a row (docs/trajectory-files.md)")

@@ -115,6 +115,17 @@ def finite_rows(*arrays) -> int:
     return int(np.argmin(good)) if not good.all() else len(good)
 
 
+def quaternion_rows(q, *arrays) -> int:
+    """:func:`finite_rows` of ``q`` and ``arrays``, and no further than the first quaternion of ``q`` whose norm has
+    collapsed to zero or overflowed (an engine's additive quaternion, grown by explicit Euler over an hour: normalised,
+    it is zero, no rotation)."""
+    k = finite_rows(q, *arrays)
+    with np.errstate(over="ignore", invalid="ignore"):
+        n = np.linalg.norm(np.asarray(q[:k], dtype=float), axis=1)
+        gone = np.flatnonzero(~(np.isfinite(n) & (n > 1e-150)))
+    return int(gone[0]) if gone.size else k
+
+
 def until_non_finite(t, q, omega, *, method: str, dt: float, extras=None) -> "Trajectory":
     """An engine's run as a :class:`Trajectory` from its times ``t`` and the ``q``, ``omega`` rows up to its first
     non-finite state (:func:`finite_rows`; as many as ``t``'s when there is none): fewer fail the run, saying when."""

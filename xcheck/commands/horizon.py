@@ -47,7 +47,7 @@ def _steps(text: str | None, scenario, duration: float) -> list[float]:
 
 
 def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: str | None, json: str | None,
-            out: str | None = None, ctx: Context) -> Outcome:
+            out: str | None = None, workers: int | None = None, ctx: Context) -> Outcome:
     from ..base.files import check_output_dir, check_output_file, write_json_atomic
     from ..scenario import resolve_scenario
     from ..study.horizon import THRESHOLDS, run_horizon
@@ -62,8 +62,18 @@ def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: 
         check_output_dir(out, "--out")
     from ..reference import ReferenceFailure
 
+    if workers is not None and workers < 1:
+        raise UsageError(f"--workers: expected 1 or more processes, got {workers}")
+    import os
+    from contextlib import nullcontext
+
+    from ..base.pool import worker_pool
+    from ..report.build import worker_modules
+
+    two = (workers or min(2, os.cpu_count() or 1)) >= 2  # the runs shared by this process and one worker
     try:
-        res = run_horizon(sc, duration=T, steps=dts, methods=chosen, progress=ctx.progress())
+        with worker_pool(1, warm=worker_modules(figures=False)) if two else nullcontext() as pool:
+            res = run_horizon(sc, duration=T, steps=dts, methods=chosen, progress=ctx.progress(), pool=pool)
     except ReferenceFailure as exc:
         raise UsageError(f"--duration: {exc}; a shorter duration, or a scenario with a closed form") from None
     ctx.say(f"\n{sc.name} over {T:g} s ({sc.reference} reference): attitude error ∝ t^p, the energy's drift, and how "
@@ -80,6 +90,8 @@ def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: 
         energy = "—" if line.energy_law is None else line.energy_law
         within = " ".join(f"{_seconds(line.within[b], T):>13s}" for b in THRESHOLDS)
         ctx.say(f"  {line.method:{width}s} {line.dt:>10.6g} {line.final_error:>11.3g} {p:>6s}  {energy:<16s} {within}")
+    for line in res.left_out:
+        ctx.say(f"  {line}")
     if json:
         write_json_atomic(json, res.to_json())
         ctx.written.append(json)

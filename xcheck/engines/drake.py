@@ -22,7 +22,7 @@ import functools
 import numpy as np
 
 from .. import rotations as rot
-from ..trajectory import Trajectory, finite_rows, fixed_step_start, until_non_finite
+from ..trajectory import Trajectory, finite_rows, fixed_step_start, quaternion_rows, until_non_finite
 from .held_input import engine_torque
 from .mechanism import Top
 
@@ -231,7 +231,7 @@ def _run_gyrostat(gyro, *, integrator: str, q0, omega0, dt: float, duration: flo
             x[nq + j.velocity_start()] = w.speed
         p.SetPositionsAndVelocities(c, x)
     times, data, error = _simulate(d, builder, plant, set_state, integrator=integrator, dt=dt, duration=duration)
-    k = finite_rows(data)
+    k = quaternion_rows(data[:, qs:qs + 4], data)
     q, omega = from_drake(np.concatenate([data[:k, qs:qs + 4], data[:k, vs:vs + 3]], axis=1))
     return times, q, omega, error
 
@@ -271,7 +271,7 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
         times, data = _run(inertia, mass=1.0, integrator=integrator, dt=dt, duration=duration, gravity=np.zeros(3),
                            torque=torque, state0=np.concatenate([attitude[0:4], np.zeros(3), attitude[4:7],
                                                                  np.zeros(3)]))
-        k = finite_rows(data[:, 0:10])
+        k = quaternion_rows(data[:, 0:4], data[:, 0:10])
         q, omega = from_drake(np.concatenate([data[:k, 0:4], data[:k, 7:10]], axis=1))
         norm = np.linalg.norm(data[:k, 0:4], axis=1)
     traj = until_non_finite(times, q, omega, method=method, dt=dt, extras={

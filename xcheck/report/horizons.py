@@ -96,6 +96,7 @@ def _finish(scenario, parts: list) -> tuple[dict, tuple | None, str | None]:
     order = {m: k for k, m in enumerate(default_methods())}
     doc["lines"] = sorted((line for d, _ in parts for line in d["lines"]), key=lambda x: (order[x["method"]], -x["dt"]))
     doc["wall_time"] = sum(d["wall_time"] for d, _ in parts)
+    doc["left_out"] = [line for d, _ in parts for line in d.get("left_out", [])]
     figure = png_of(horizon_figure(doc), f"{scenario.name}-horizon.png",
                     f"{scenario.name} over {doc['duration']:g} s: the attitude error against time on log-log axes, one "
                     "panel per step, each method a line (dotted: 1e-6 and 1e-3 rad); below, the energy's drift where "
@@ -160,6 +161,8 @@ def horizon_section(started) -> "object | None":
                          *(Cell(_seconds(w, doc["duration"]), num=True) for w in within)])
         whole = sum(1 for line in doc["lines"] if line["status"] == "ok"
                     and line["within"][f"{THRESHOLDS[-1]:g}"] >= doc["duration"])
+        for line in doc.get("left_out", []):
+            blocks.append(Para(line, small=True))
         blocks.append(Table(head, rows, fold=f"{whole} of {len(rows)} runs (method and step) within "
                                              f"{THRESHOLDS[-1]:g} rad for the whole {doc['duration']:g} s; "
                                              f"{doc['wall_time']:.0f} s of CPU"))

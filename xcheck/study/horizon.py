@@ -19,8 +19,8 @@ from ..rotations import attitude_error, quat_rotate
 from ..runners import RUNNERS
 from ..scenario import Scenario
 
-__all__ = ["HorizonLine", "HorizonResult", "run_horizon", "horizon_methods", "growth_exponent", "drift_law", "time_within",
-           "log_indices", "THRESHOLDS", "LOG_SAMPLES", "UNIFORM_SAMPLES"]
+__all__ = ["HorizonLine", "HorizonResult", "run_horizon", "horizon_methods", "horizon_plan", "ENGINE_STEPS",
+           "growth_exponent", "drift_law", "time_within", "log_indices", "THRESHOLDS", "LOG_SAMPLES", "UNIFORM_SAMPLES"]
 
 #: The attitude errors [rad] whose first crossing a horizon study reports.
 THRESHOLDS = (1e-6, 1e-3)
@@ -38,6 +38,11 @@ HORIZON_RTOL = 2.5e-15
 REFERENCE_LIMIT = 1e-8
 #: A relative energy drift below this a step is round-off (LGVI's, torque free: 1.6e-16 a step over 1e5 steps).
 DRIFT_ROUND_OFF = 1e-15
+#: The steps an engine's method takes in a horizon study at most, summed over its steps coarse to fine (its finer
+#: steps beyond are left out, and the study says so): the engines other than MuJoCo cost 1-40 us a step where ours
+#: cost 0.1-2, and an hour of the gyroscope at 1/64 s is 230 000 steps. Its coarsest step alone may exceed it: then
+#: the method is left out.
+ENGINE_STEPS = 300_000
 
 
 @dataclass
@@ -71,13 +76,15 @@ class HorizonResult:
     lines: list
     #: what the reference is over the horizon, and how it was checked
     reference_note: str = ""
+    #: what was left out and why, one line for the methods left out for one reason (:func:`horizon_plan`)
+    left_out: list = field(default_factory=list)
 
     def to_json(self) -> dict:
         from ..versions import versions
 
         return {"schema": "xcheck.horizon/1", "scenario": self.scenario.name, "duration": self.duration,
                 "steps": list(self.steps), "reference": self.scenario.reference, "reference_note": self.reference_note,
-                "versions": versions(), "lines": [line.to_json() for line in self.lines]}
+                "versions": versions(), "lines": [line.to_json() for line in self.lines], "left_out": self.left_out}
 
 
 def log_indices(n: int, count: int = LOG_SAMPLES) -> np.ndarray:
@@ -147,44 +154,108 @@ def _energy(ctx, q, omega) -> np.ndarray | None:
 
 
 def horizon_methods() -> list:
-    """The methods a horizon study runs by default: ours and MuJoCo's fixed-step methods (not the printed algorithm
-    172, a demonstration)."""
-    return [m for m, r in RUNNERS.items() if r.engine in ("xcheck", "mujoco") and not r.adaptive
-            and r.demonstration is None]
+    """The methods a horizon study runs by default: every fixed-step method installed here, ours, MuJoCo's and the
+    engines' (not the printed algorithm 172, a demonstration; not an opt-in engine's, MJX's)."""
+    return [m for m, r in RUNNERS.items() if not r.adaptive and r.demonstration is None and not r.opt_in]
 
 
-def run_horizon(scenario: Scenario, *, duration: float, steps, methods=None, progress=None) -> HorizonResult:
-    """Every method of ``methods`` (default: ours and MuJoCo's fixed-step methods) at each of ``steps`` over
-    ``duration`` s, against the scenario's reference over that duration (:class:`HorizonLine` each)."""
-    from .context import run_context, scenario_reference
+def horizon_plan(scenario: Scenario, methods, steps, duration: float) -> tuple[list, list]:
+    """``([(method, dt)] to run, [lines saying what was left out and why])``: every method at every step, but a method
+    that cannot represent the body (:attr:`~xcheck.runners.Runner.cannot`), a step an engine's clock cannot take, and
+    an engine's steps beyond :data:`ENGINE_STEPS` are left out, said."""
+    from ..trajectory import step_plan
+
+    plan, left = [], []
+    over: dict = {}
+    for method in methods:
+        runner = RUNNERS[method]
+        why = runner.cannot_run(scenario.model)
+        if why:
+            left.append(f"{method} not run: {why}")
+            continue
+        total = 0
+        for dt in steps:
+            if runner.clock is not None:
+                try:
+                    runner.clock(dt)
+                except ValueError as exc:
+                    left.append(f"{method} not run at {dt:g} s: {exc}")
+                    continue
+            total += step_plan(dt, duration)[0]
+            if runner.engine not in ("xcheck", "mujoco") and total > ENGINE_STEPS:
+                over.setdefault(method, []).append(dt)
+                continue
+            plan.append((method, dt))
+    groups: dict = {}
+    for method, dts in over.items():
+        groups.setdefault(tuple(dts), []).append(method)
+    for dts, names in groups.items():
+        left.append(f"{', '.join(names)} not run at {', '.join(f'{d:g}' for d in dts)} s: the step budget of "
+                    f"{ENGINE_STEPS:,} steps a method of an engine that takes microseconds a step where ours take a "
+                    "tenth of one")
+    return plan, left
+
+
+def _reference(long: Scenario, ctx, duration: float):
+    """``(reference, what it is)`` over the horizon: the closed form at any time, the compiled DOP853 checked against
+    itself (:class:`_Compiled`), or the scenario's own; :class:`~xcheck.reference.ReferenceFailure` where it cannot
+    cover the duration."""
+    from .context import scenario_reference
+
+    if long.reference == "exact":  # the closed form at any time (its guard against DOP853 is the ordinary study's,
+        # over the scenario's own duration: its phase at large times is tested)
+        return _Exact(ctx), "the closed form, evaluated at each time (its phase: the rounding of |w| t)"
+    if long.reference == "dop853":
+        ref = _Compiled(ctx, duration)
+        return ref, ref.note
+    from ..reference import ReferenceFailure
+
+    try:
+        return scenario_reference(long), f"the scenario's {long.reference} reference"
+    except ReferenceFailure as exc:
+        raise ReferenceFailure(f"the scenario's {long.reference} reference over {duration:g} s: {exc}") from None
+
+
+def horizon_lines(long: Scenario, plan, progress=None, ref=None) -> list:
+    """The :class:`HorizonLine` of each ``(method, dt)`` of ``plan`` over ``long``'s duration (a worker's part: its own
+    context and reference, unless ``ref`` is given)."""
+    from .context import run_context
+
+    ctx = run_context(long)
+    if ref is None:
+        ref = _reference(long, ctx, long.duration)[0]
+    lines = []
+    for k, (method, dt) in enumerate(plan):
+        if progress:
+            progress(k, len(plan), f"{method} at {dt:g} s")
+        lines.append(_line(RUNNERS[method], ctx, ref, dt))
+    return lines
+
+
+def run_horizon(scenario: Scenario, *, duration: float, steps, methods=None, progress=None,
+                pool=None) -> HorizonResult:
+    """Every method of ``methods`` (default: :func:`horizon_methods`) at each of ``steps`` over ``duration`` s, against
+    the scenario's reference over that duration (:class:`HorizonLine` each; what :func:`horizon_plan` leaves out,
+    said). ``pool``: a process pool whose worker runs every other run of the plan while this process runs the rest."""
+    from .context import run_context
 
     long = dataclasses.replace(scenario, duration=float(duration))
-    ctx = run_context(long)
-    if long.reference == "exact":  # the closed form at any time (its guard against DOP853 is the ordinary study's,
-        ref = _Exact(ctx)          # over the scenario's own duration: its phase at large times is tested)
-        note = "the closed form, evaluated at each time (its phase: the rounding of |w| t)"
-    elif long.reference == "dop853":
-        ref = _Compiled(ctx, float(duration))
-        note = ref.note
-    else:
-        from ..reference import ReferenceFailure
-
-        try:
-            ref = scenario_reference(long)
-        except ReferenceFailure as exc:
-            raise ReferenceFailure(f"the scenario's {long.reference} reference over {duration:g} s: {exc}") from None
-        note = f"the scenario's {long.reference} reference"
+    ref, note = _reference(long, run_context(long), float(duration))
     if methods is None:
         methods = horizon_methods()
-    lines = []
-    total = len(methods) * len(steps)
-    for k, (method, dt) in enumerate((m, float(dt)) for m in methods for dt in steps):
+    plan, left = horizon_plan(long, methods, [float(s) for s in steps], float(duration))
+    if pool is None:
+        lines = horizon_lines(long, plan, progress, ref)
+    else:  # every other run to the worker (the plan's costs vary along it: methods, then steps)
+        there = pool.submit(horizon_lines, long, plan[1::2])
+        here = horizon_lines(long, plan[0::2], progress and (lambda k, n, what: progress(2 * k, len(plan), what)), ref)
         if progress:
-            progress(k, total, f"{method} at {dt:g} s")
-        lines.append(_line(RUNNERS[method], ctx, ref, dt))
+            progress(len(here) + len(plan) // 2 - 1, len(plan), "the worker's runs")
+        lines = [None] * len(plan)
+        lines[0::2], lines[1::2] = here, there.result()
     if progress:
-        progress(total, total, "")
-    return HorizonResult(long, float(duration), tuple(float(s) for s in steps), lines, note)
+        progress(len(plan), len(plan), "")
+    return HorizonResult(long, float(duration), tuple(float(s) for s in steps), lines, note, left)
 
 
 class _Exact:
