@@ -81,15 +81,17 @@ def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: 
     ctx.say(f"  reference: {res.reference_note}")
     width = max([22, *(len(line.method) for line in res.lines)])
     ctx.say(f"  {'method':{width}s} {'step [s]':>10s} {'error at T':>11s} {'p':>6s}  {'energy':<16s} "
-            + " ".join(f"{'within ' + format(b, 'g'):>13s}" for b in THRESHOLDS))
+            f"{'momentum':<16s} " + " ".join(f"{'within ' + format(b, 'g'):>13s}" for b in THRESHOLDS))
     for line in res.lines:
         if line.status != "ok":
             ctx.say(f"  {line.method:{width}s} {line.dt:>10.6g} failed: {line.message}")
             continue
         p = "—" if line.growth is None else f"{line.growth:.2f}"
         energy = "—" if line.energy_law is None else line.energy_law
+        momentum = "—" if line.momentum_law is None else line.momentum_law
         within = " ".join(f"{_seconds(line.within[b], T):>13s}" for b in THRESHOLDS)
-        ctx.say(f"  {line.method:{width}s} {line.dt:>10.6g} {line.final_error:>11.3g} {p:>6s}  {energy:<16s} {within}")
+        ctx.say(f"  {line.method:{width}s} {line.dt:>10.6g} {line.final_error:>11.3g} {p:>6s}  {energy:<16s} "
+                f"{momentum:<16s} {within}")
     for line in res.left_out:
         ctx.say(f"  {line}")
     if json:

@@ -143,21 +143,21 @@ def horizon_section(started) -> "object | None":
             blocks.append(Para(f"Not run: {why}."))
             continue
         blocks.append(Para(f"Reference: {doc['reference_note']}."))
-        head = ["method", "step [s]", "error at T [rad]", "p", "energy",
+        head = ["method", "step [s]", "error at T [rad]", "p", "energy", "momentum's direction",
                 *(f"within {b:g} rad" for b in THRESHOLDS)]
         rows = []
         for line in doc["lines"]:
             if line["status"] != "ok":
                 mine = RUNNERS[line["method"]].engine == "xcheck"
                 rows.append([Cell(line["method"], "fail" if mine else ""), Cell(f"{line['dt']:g}", num=True),
-                             Cell(f"failed: {line['message']}"), "", "", "", ""])
+                             Cell(f"failed: {line['message']}"), "", "", "", "", ""])
                 continue
             within = [line["within"][f"{b:g}"] for b in THRESHOLDS]
             verdict = "pass" if within[-1] >= doc["duration"] else ""
             rows.append([Cell(line["method"], verdict), Cell(f"{line['dt']:g}", num=True),
                          Cell(f"{line['final_error']:.3g}", num=True),
                          Cell("—" if line["growth"] is None else f"{line['growth']:.2f}", num=True),
-                         line["energy_law"] or "—",
+                         line["energy_law"] or "—", line.get("momentum_law") or "—",
                          *(Cell(_seconds(w, doc["duration"]), num=True) for w in within)])
         whole = sum(1 for line in doc["lines"] if line["status"] == "ok"
                     and line["within"][f"{THRESHOLDS[-1]:g}"] >= doc["duration"])

@@ -61,6 +61,10 @@ class HorizonLine:
     growth: float | None = None
     energy_law: str | None = None
     energy_exponent: float | None = None
+    #: the angle [rad] between the world angular momentum and its start, where the motion keeps it (torque free), and
+    #: its law as the energy's
+    momentum_drift: list | None = None
+    momentum_law: str | None = None
     within: dict = field(default_factory=dict)
     final_error: float | None = None
 
@@ -232,6 +236,14 @@ def horizon_lines(long: Scenario, plan, progress=None, ref=None) -> list:
     return lines
 
 
+def _momentum(ctx, q, omega) -> np.ndarray | None:
+    """The world angular momentum's angle from its start [rad], where the motion keeps it (torque free, no wheels)."""
+    if ctx.torque is not None or getattr(ctx.body, "wheels", ()):
+        return None
+    H = quat_rotate(q, omega @ np.asarray(ctx.inertia, dtype=float).T)
+    return np.arctan2(np.linalg.norm(np.cross(H, H[0]), axis=1), H @ H[0])
+
+
 def run_horizon(scenario: Scenario, *, duration: float, steps, methods=None, progress=None,
                 pool=None) -> HorizonResult:
     """Every method of ``methods`` (default: :func:`horizon_methods`) at each of ``steps`` over ``duration`` s, against
@@ -319,8 +331,11 @@ def _line(runner, ctx, ref, dt: float) -> HorizonLine:
     on_log = np.isin(idx, logs)
     t_log, e_log = traj.t[idx][on_log], err[on_log]
     law, q = (None, None) if drift is None else drift_law(t_log, drift[on_log], steps=n)
+    turned = _momentum(ctx, traj.q[idx], traj.omega[idx])
+    momentum_law = None if turned is None else drift_law(t_log, turned[on_log], steps=n)[0]
     return HorizonLine(runner.name, dt, "ok", t=t_log.tolist(), attitude_error=e_log.tolist(),
                        energy_drift=None if drift is None else drift[on_log].tolist(),
                        growth=growth_exponent(t_log, e_log), energy_law=law, energy_exponent=q,
+                       momentum_drift=None if turned is None else turned[on_log].tolist(), momentum_law=momentum_law,
                        within={b: time_within(traj.t[idx], err, b) for b in THRESHOLDS},
                        final_error=float(err[-1]))
