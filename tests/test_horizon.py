@@ -29,6 +29,7 @@ def test_the_fits_recover_known_laws():
     law, q = drift_law(t, 1e-7 * np.sqrt(t))
     assert law.startswith("grows as t^0.5") and q == pytest.approx(0.5, abs=0.05)
     assert drift_law(t, np.full_like(t, 1e-12))[0] == "round-off"
+    assert drift_law(t, 1 - np.exp(-t / t[-1] * 50))[0] == "not kept"  # damped away: its maximum stalls at 1
 
 
 def test_time_within_is_the_last_time_before_the_first_crossing():
@@ -246,3 +247,35 @@ def test_the_momentums_direction_is_kept_by_the_geometric_methods_only():
         assert law[m] == ("round-off", "round-off"), m
     top = run_horizon(resolve_scenario("heavy-top"), duration=20.0, steps=(1 / 64,), methods=["lie-rkmk4"])
     assert top.lines[0].momentum_law is None and top.lines[0].momentum_drift is None
+
+
+def test_mujocos_integrators_and_basilisks_over_an_orbit():
+    """Issue 41: the engines over an orbit (5400 s). Truth: the closed form (the torque-free tumbler near its
+    intermediate axis) and the compiled DOP853 (RAX-1 in the orbit field). On the tumbler at 1/16 s: MuJoCo's RK4 is
+    0.108 rad off at the end, its error growing as t^1.9 and its energy secularly (4e-5), within 1e-3 rad for 494 s;
+    its Euler blows up (111 s); implicit and implicitfast damp the tumble (95 % of the energy gone: not kept), off by
+    the whole attitude within a second. Basilisk's RK4 is MuJoCo's to three digits. On RAX-1 at 0.5 s MuJoCo's RK4 is
+    lie-rkmk4's (3.8e-4 rad, t^1.5); Basilisk's, its field held at each step's midpoint (second order), 9.4e-4 and t^1."""
+    from xcheck.runners import RUNNERS
+
+    basilisk = "basilisk-rk4" in RUNNERS
+    engines = ["mujoco-rk4", "mujoco-euler", "mujoco-implicit", "mujoco-implicitfast"] + (["basilisk-rk4"] * basilisk)
+    tumbler = run_horizon(resolve_scenario("tumbler-intermediate-axis"), duration=5400.0, steps=(0.0625,),
+                          methods=engines)
+    by = {line.method: line for line in tumbler.lines}
+    rk = by["mujoco-rk4"]
+    assert rk.final_error == pytest.approx(0.108, rel=0.03) and rk.energy_law == "secular"
+    assert rk.within[1e-3] == pytest.approx(494, rel=0.02) and 1.7 < rk.growth < 2.0
+    assert by["mujoco-euler"].status == "failed" and "blew up" in by["mujoco-euler"].message
+    for m in ("mujoco-implicit", "mujoco-implicitfast"):
+        assert by[m].energy_law == "not kept" and by[m].energy_drift[-1] > 0.9 and by[m].within[1e-3] < 1.0
+    orbit = run_horizon(resolve_scenario("rax1-orbit-field"), duration=5400.0, steps=(0.5,),
+                        methods=["lie-rkmk4", "mujoco-rk4"] + (["basilisk-rk4"] * basilisk))
+    lines = {line.method: line for line in orbit.lines}
+    assert lines["mujoco-rk4"].final_error == pytest.approx(lines["lie-rkmk4"].final_error, rel=1e-3)
+    assert lines["mujoco-rk4"].final_error == pytest.approx(3.76e-4, rel=0.03)
+    if not basilisk:
+        pytest.skip("Basilisk is not installed (the extra basilisk): its orbit is not tested here")
+    assert by["basilisk-rk4"].final_error == pytest.approx(rk.final_error, rel=1e-3)
+    assert lines["basilisk-rk4"].final_error == pytest.approx(9.43e-4, rel=0.03)
+    assert 0.8 < lines["basilisk-rk4"].growth < 1.4

@@ -173,5 +173,6 @@ def horizon_section(started) -> "object | None":
         summary = f"Horizons: {len(results)} scenarios over their long durations, every method of ours ran."
     return Section(blocks=blocks, figures=figures,
                    results={"horizons": {"passed": ok, "studies": [doc for doc, _, _ in results],
-                                         "refused": [{"scenario": s, "why": w} for s, w in refused]}},
+                                         "refused": [{"scenario": s, "why": w} for s, w in refused],
+                                         "failed": [{"scenario": s, "method": m, "dt": dt} for s, m, dt in failed]}},
                    passed=ok, summary=summary)

@@ -36,6 +36,9 @@ HORIZON_RTOL = 2.5e-15
 #: by it: the errors it reads go down to 1e-6 rad (a day of RAX-1 with its momentum wheel and the gravity gradient
 #: differs by 3.1 rad: that motion is too sensitive to be referenced over a day).
 REFERENCE_LIMIT = 1e-8
+#: A drift at least this large (half the energy lost or gained, an angle of 0.5 rad) is "not kept": its running maximum
+#: stalls there (MuJoCo's implicitfast damps 95 % of the tumbler's energy over an orbit), which is no bounded error.
+NOT_KEPT = 0.5
 #: A relative energy drift below this a step is round-off (LGVI's, torque free: 1.6e-16 a step over 1e5 steps).
 DRIFT_ROUND_OFF = 1e-15
 #: The steps an engine's method takes in a horizon study at most, summed over its steps coarse to fine (its finer
@@ -116,12 +119,15 @@ def drift_law(t, drift, steps: int | None = None) -> tuple[str | None, float | N
     ``[T/2^(k+1), T/2^k]`` (k = 0 ... 5) against their ends; ``"bounded"`` for q < 0.2, ``"secular"`` for q >= 0.8
     (a drift as t), else ``"grows as t^q"``; ``"round-off"`` where it stays below the round-off of the run's
     ``steps`` (:data:`DRIFT_ROUND_OFF` a step, 1e-12 at least; without ``steps``, that of a million): whatever its
-    growth, nothing the method does. (None, None) without samples."""
+    growth, nothing the method does; ``"not kept"`` where it reaches :data:`NOT_KEPT`. (None, None) without
+    samples."""
     t, drift = np.asarray(t, dtype=float), np.abs(np.asarray(drift, dtype=float))
     if not len(t):
         return None, None
     if np.max(drift) <= max(1e-12, DRIFT_ROUND_OFF * (steps if steps else 1e6)):
         return "round-off", None
+    if np.max(drift) >= NOT_KEPT:  # the invariant is gone, or doubled: its running maximum stalls, not bounded
+        return "not kept", None
     ends, peaks = [], []
     for k in range(6):
         lo, hi = t[-1] / 2 ** (k + 1), t[-1] / 2 ** k
