@@ -404,7 +404,7 @@ def test_timings_name_the_phases(tmp_path, capsys):
     line = capsys.readouterr().err.strip().splitlines()[-1]
     assert line.startswith("where the time went: ")
     phases = re.findall(r"([a-z ,]+) (\d+\.\d\d) s", line.removeprefix("where the time went: "))
-    assert [p.strip(" ,") for p, _ in phases] == ["pool started", "scenarios read", "studies", "figures",
+    assert [p.strip(" ,") for p, _ in phases] == ["pool started", "scenarios read", "studies", "sections", "figures",
                                                   "files written", "workers stopped"]
 
 

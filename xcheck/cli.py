@@ -105,7 +105,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also write every method's finest run as CSV (trajectories/, ~4 MB a scenario)")
     p.add_argument("--horizon", action="store_true",
                    help="also run each scenario's [horizon] (an orbit, an hour, a day: how long each method stays "
-                        "within 1e-6 and 1e-3 rad; a minute or two for the bundled ones)")
+                        "within 1e-6 and 1e-3 rad; three or four minutes for the bundled ones)")
     p.add_argument("--with", dest="with_engines", metavar="ENGINE",
                    help=WITH_HELP)
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: CPU count)")

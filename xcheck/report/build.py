@@ -123,6 +123,7 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
 
             bench = measure(quick=quick, repeat=1)
         built = [section for make, work in begun if (section := make(work)) is not None]
+        marks.append(("sections", time.perf_counter()))  # the horizons', when asked for, the longest
         folder = write_report(studies, out, throughput=throughput_rows(studies) + (bench or []),
                               wall_time=time.perf_counter() - t0, quick=quick, pool=pool,
                               figures=figures.futures if figures else None,

@@ -96,7 +96,12 @@ def _finish(scenario, parts: list) -> tuple[dict, tuple | None, str | None]:
     order = {m: k for k, m in enumerate(default_methods())}
     doc["lines"] = sorted((line for d, _ in parts for line in d["lines"]), key=lambda x: (order[x["method"]], -x["dt"]))
     doc["wall_time"] = sum(d["wall_time"] for d, _ in parts)
-    doc["left_out"] = [line for d, _ in parts for line in d.get("left_out", [])]
+    import dataclasses
+
+    from ..study.horizon import horizon_plan
+
+    long = dataclasses.replace(scenario, duration=doc["duration"])  # what was left out, said once for all the parts
+    doc["left_out"] = horizon_plan(long, default_methods(), doc["steps"], doc["duration"])[1]
     figure = png_of(horizon_figure(doc), f"{scenario.name}-horizon.png",
                     f"{scenario.name} over {doc['duration']:g} s: the attitude error against time on log-log axes, one "
                     "panel per step, each method a line (dotted: 1e-6 and 1e-3 rad); below, the energy's drift where "
