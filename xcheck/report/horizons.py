@@ -26,9 +26,10 @@ def default_methods() -> list:
     return horizon_methods()
 
 
-def horizon_job(scenario, part: int = 0, parts: int = 1) -> tuple[dict, str | None]:
-    """Part ``part`` of ``parts`` of one scenario's horizon study (in a worker): ``(xcheck.horizon/1 document, why it
-    could not run)``; the reference refused over the duration is the second (the document then names the scenario
+def horizon_job(scenario, methods=None) -> tuple[dict, str | None]:
+    """One scenario's horizon study of ``methods`` (default: :func:`default_methods`; a part of them, named by this
+    process: a worker's registry may list the engines in another order): ``(xcheck.horizon/1 document, why it could
+    not run)``; the reference refused over the duration is the second (the document then names the scenario
     alone)."""
     import time
 
@@ -40,7 +41,8 @@ def horizon_job(scenario, part: int = 0, parts: int = 1) -> tuple[dict, str | No
         steps = tuple(sorted(scenario.quick_steps, reverse=True)[:3])
     t0 = time.perf_counter()
     try:
-        res = run_horizon(scenario, duration=duration, steps=steps, methods=default_methods()[part::parts])
+        res = run_horizon(scenario, duration=duration, steps=steps,
+                          methods=default_methods() if methods is None else methods)
     except ReferenceFailure as exc:
         return {"scenario": scenario.name, "duration": duration}, str(exc)
     return res.to_json() | {"wall_time": time.perf_counter() - t0}, None
@@ -70,12 +72,13 @@ def _gather(scenarios, pool, progress=None) -> dict:
             done[sc.name, 0] = horizon_job(sc)
         tick("")
         return done
-    flat = [(sc, k, pool.submit(horizon_job, sc, k, PARTS)) for sc in scenarios for k in range(PARTS)]
+    methods = default_methods()
+    flat = [(sc, k, pool.submit(horizon_job, sc, methods[k::PARTS])) for sc in scenarios for k in range(PARTS)]
     total = len(flat)
     for sc, k, job in reversed(flat):
         if job.cancel():  # not begun in the pool: this process takes it
             tick(f"horizon of {sc.name} ({k + 1} of {PARTS})")
-            done[sc.name, k] = horizon_job(sc, k, PARTS)
+            done[sc.name, k] = horizon_job(sc, methods[k::PARTS])
     for sc, k, job in flat:
         if (sc.name, k) not in done:
             tick(f"horizon of {sc.name} ({k + 1} of {PARTS})")
