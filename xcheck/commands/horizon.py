@@ -10,15 +10,13 @@ from ..base.errors import UsageError
 from . import Context, Outcome
 from .arguments import methods_arg, steps_arg
 
-#: The steps of a horizon study when none are given: the scenario's three coarsest quick steps.
-DEFAULT_STEP_COUNT = 3
-
-
 def _duration(text: str | None, scenario) -> float:
     """``--duration``: seconds, or with a unit (``5400s``, ``90min``, ``1h``, ``1d``); default the scenario's
     ``[horizon]`` duration, else 100 times its own."""
     if text is None:
-        return scenario.horizon[0] if scenario.horizon else 100.0 * scenario.duration
+        from ..study.horizon import default_duration
+
+        return default_duration(scenario)
     units = {"d": 86400.0, "h": 3600.0, "min": 60.0, "s": 1.0}
     for unit, scale in units.items():
         if text.endswith(unit):
@@ -38,19 +36,19 @@ def _duration(text: str | None, scenario) -> float:
 
 def _steps(text: str | None, scenario, duration: float) -> list[float]:
     """``--steps`` over the horizon's ``duration`` (:func:`~xcheck.commands.arguments.steps_arg`); default the
-    ``[horizon]`` steps, else the scenario's :data:`DEFAULT_STEP_COUNT` coarsest quick steps."""
+    ``[horizon]`` steps, else the scenario's coarsest quick steps (:func:`~xcheck.study.horizon.default_steps`)."""
     if text is not None:
         return steps_arg(text, dataclasses.replace(scenario, duration=duration))
-    if scenario.horizon and scenario.horizon[1]:
-        return list(scenario.horizon[1])
-    return [s for s in sorted(scenario.quick_steps, reverse=True) if s <= duration][:DEFAULT_STEP_COUNT]
+    from ..study.horizon import default_steps
+
+    return default_steps(scenario, duration)
 
 
 def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: str | None, json: str | None,
             out: str | None = None, workers: int | None = None, ctx: Context) -> Outcome:
     from ..base.files import check_output_dir, check_output_file, write_json_atomic
     from ..scenario import resolve_scenario
-    from ..study.horizon import THRESHOLDS, run_horizon
+    from ..study.horizon import THRESHOLDS, run_horizon, within_text
 
     sc = resolve_scenario(scenario)
     T = _duration(duration, sc)
@@ -89,7 +87,7 @@ def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: 
         p = "—" if line.growth is None else f"{line.growth:.2f}"
         energy = "—" if line.energy_law is None else line.energy_law
         momentum = "—" if line.momentum_law is None else line.momentum_law
-        within = " ".join(f"{_seconds(line.within[b], T):>13s}" for b in THRESHOLDS)
+        within = " ".join(f"{within_text(line.within[b], T):>13s}" for b in THRESHOLDS)
         ctx.say(f"  {line.method:{width}s} {line.dt:>10.6g} {line.final_error:>11.3g} {p:>6s}  {energy:<16s} "
                 f"{momentum:<16s} {within}")
     for line in res.left_out:
@@ -108,9 +106,3 @@ def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: 
         ctx.say(f"figure: {path}")
     return Outcome("PASSED")
 
-
-def _seconds(value: float, duration: float) -> str:
-    """A time within a bound, as read: the whole run, 'at once', or seconds."""
-    if value >= duration:
-        return "whole run"
-    return "at once" if value == 0 else f"{value:.4g} s"

@@ -1,10 +1,12 @@
 """The report's horizon section (issue 41; ``xcheck report --horizon``): every reported scenario with a ``[horizon]``
 table run over its long duration (:func:`xcheck.study.horizon.run_horizon`), each method at its steps, and for each
 method and step the verdict the issue asks for: how long it stays within 1e-6 and 1e-3 rad, its error's growth law
-and its energy's. Opt-in, not in every full report: the bundled horizons take a minute or two on two cores where the
-full report's goal is three seconds a scenario (docs/decisions.md)."""
+and its energy's. Opt-in, not in every full report: the bundled horizons take three or four minutes on two cores,
+where the full report's goal is three seconds a scenario (docs/decisions.md)."""
 
 from __future__ import annotations
+
+from ..study.horizon import THRESHOLDS, default_steps, horizon_methods, horizon_plan, run_horizon, within_text
 
 __all__ = ["horizon_job", "horizon_section", "start_horizons", "with_horizon", "PARTS"]
 
@@ -19,30 +21,19 @@ def with_horizon(scenarios) -> list:
 PARTS = 2
 
 
-def default_methods() -> list:
-    """The methods of a horizon study by default (:func:`xcheck.study.horizon.horizon_methods`)."""
-    from ..study.horizon import horizon_methods
-
-    return horizon_methods()
-
-
 def horizon_job(scenario, methods=None) -> tuple[dict, str | None]:
-    """One scenario's horizon study of ``methods`` (default: :func:`default_methods`; a part of them, named by this
-    process: a worker's registry may list the engines in another order): ``(xcheck.horizon/1 document, why it could
-    not run)``; the reference refused over the duration is the second (the document then names the scenario
-    alone)."""
+    """One scenario's horizon study of ``methods`` (default: :func:`~xcheck.study.horizon.horizon_methods`; a part of
+    them, named by this process: a worker's registry may list the engines in another order): ``(xcheck.horizon/1
+    document, why it could not run)``; the reference refused over the duration is the second (the document then names
+    the scenario alone)."""
     import time
 
     from ..reference import ReferenceFailure
-    from ..study.horizon import run_horizon
 
-    duration, steps = scenario.horizon
-    if not steps:
-        steps = tuple(sorted(scenario.quick_steps, reverse=True)[:3])
+    duration = scenario.horizon[0]
     t0 = time.perf_counter()
     try:
-        res = run_horizon(scenario, duration=duration, steps=steps,
-                          methods=default_methods() if methods is None else methods)
+        res = run_horizon(scenario, duration=duration, steps=default_steps(scenario, duration), methods=methods)
     except ReferenceFailure as exc:
         return {"scenario": scenario.name, "duration": duration}, str(exc)
     return res.to_json() | {"wall_time": time.perf_counter() - t0}, None
@@ -72,7 +63,7 @@ def _gather(scenarios, pool, progress=None) -> dict:
             done[sc.name, 0] = horizon_job(sc)
         tick("")
         return done
-    methods = default_methods()
+    methods = horizon_methods()
     flat = [(sc, k, pool.submit(horizon_job, sc, methods[k::PARTS])) for sc in scenarios for k in range(PARTS)]
     total = len(flat)
     for sc, k, job in reversed(flat):
@@ -96,15 +87,14 @@ def _finish(scenario, parts: list) -> tuple[dict, tuple | None, str | None]:
     if refused:
         return parts[0][0], None, refused[0]
     doc = dict(parts[0][0])
-    order = {m: k for k, m in enumerate(default_methods())}
+    order = {m: k for k, m in enumerate(horizon_methods())}
     doc["lines"] = sorted((line for d, _ in parts for line in d["lines"]), key=lambda x: (order[x["method"]], -x["dt"]))
     doc["wall_time"] = sum(d["wall_time"] for d, _ in parts)
     import dataclasses
 
-    from ..study.horizon import horizon_plan
 
     long = dataclasses.replace(scenario, duration=doc["duration"])  # what was left out, said once for all the parts
-    doc["left_out"] = horizon_plan(long, default_methods(), doc["steps"], doc["duration"])[1]
+    doc["left_out"] = horizon_plan(long, horizon_methods(), doc["steps"], doc["duration"])[1]
     figure = png_of(horizon_figure(doc), f"{scenario.name}-horizon.png",
                     f"{scenario.name} over {doc['duration']:g} s: the attitude error against time on log-log axes, one "
                     "panel per step, each method a line (dotted: 1e-6 and 1e-3 rad); below, the energy's drift where "
@@ -112,16 +102,9 @@ def _finish(scenario, parts: list) -> tuple[dict, tuple | None, str | None]:
     return doc, figure, None
 
 
-def _seconds(value: float, duration: float) -> str:
-    if value >= duration:
-        return "whole run"
-    return "at once" if value == 0 else f"{value:.4g} s"
-
-
 def horizon_section(started) -> "object | None":
     """The section of the horizon studies (:func:`start_horizons`' scenarios, run now), None without any."""
     from ..runners import RUNNERS
-    from ..study.horizon import THRESHOLDS
     from .document import Cell, Figure, Heading, Para, Table
     from .render import Section
 
@@ -142,8 +125,8 @@ def horizon_section(started) -> "object | None":
                    "2.5e-15 checked against itself at half the tolerance). For each method and step: the attitude "
                    "error at the end, its growth law error ∝ tᵖ (Runge-Kutta methods: p from 1 toward 2 as the phase "
                    "error takes over; the symplectic splittings and the variational integrator: 1, a phase error "
-                   "alone), the energy's drift where the motion keeps one (bounded, secular, tᵠ, or round-off), and the "
-                   "verdict: how long it stays within 1e-6 and 1e-3 rad. The same as xcheck horizon SCENARIO.")]
+                   "alone), the energy's drift where the motion keeps one (bounded, secular, tᵠ, or round-off), and "
+                   "the verdict: how long it stays within 1e-6 and 1e-3 rad. The same as xcheck horizon SCENARIO.")]
     figures = []
     for doc, figure, why in results:
         blocks.append(Heading(3, f"{doc['scenario']} over {doc['duration']:g} s"))
@@ -166,7 +149,7 @@ def horizon_section(started) -> "object | None":
                          Cell(f"{line['final_error']:.3g}", num=True),
                          Cell("—" if line["growth"] is None else f"{line['growth']:.2f}", num=True),
                          line["energy_law"] or "—", line.get("momentum_law") or "—",
-                         *(Cell(_seconds(w, doc["duration"]), num=True) for w in within)])
+                         *(Cell(within_text(w, doc["duration"]), num=True) for w in within)])
         whole = sum(1 for line in doc["lines"] if line["status"] == "ok"
                     and line["within"][f"{THRESHOLDS[-1]:g}"] >= doc["duration"])
         for line in doc.get("left_out", []):

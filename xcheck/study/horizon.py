@@ -20,6 +20,7 @@ from ..runners import RUNNERS
 from ..scenario import Scenario
 
 __all__ = ["HorizonLine", "HorizonResult", "run_horizon", "horizon_methods", "horizon_plan", "ENGINE_STEPS",
+           "default_duration", "default_steps", "within_text", "DEFAULT_STEP_COUNT",
            "growth_exponent", "drift_law", "time_within", "log_indices", "THRESHOLDS", "LOG_SAMPLES", "UNIFORM_SAMPLES"]
 
 #: The attitude errors [rad] whose first crossing a horizon study reports.
@@ -161,6 +162,30 @@ def _energy(ctx, q, omega) -> np.ndarray | None:
     if ctx.own is not None and ctx.torque is ctx.own and getattr(body, "joint", "free") == "ball":
         return kinetic - body.mass * quat_rotate(q, np.asarray(body.centre, dtype=float)) @ np.asarray(body.gravity)
     return None
+
+
+#: The steps of a horizon study when none are given: the scenario's three coarsest quick steps.
+DEFAULT_STEP_COUNT = 3
+
+
+def default_duration(scenario: Scenario) -> float:
+    """A horizon's duration when none is given: the scenario's ``[horizon]`` duration, else 100 times its own."""
+    return scenario.horizon[0] if scenario.horizon else 100.0 * scenario.duration
+
+
+def default_steps(scenario: Scenario, duration: float) -> list[float]:
+    """A horizon's steps when none are given: the ``[horizon]`` steps, else the scenario's :data:`DEFAULT_STEP_COUNT`
+    coarsest quick steps within ``duration``."""
+    if scenario.horizon and scenario.horizon[1]:
+        return list(scenario.horizon[1])
+    return [s for s in sorted(scenario.quick_steps, reverse=True) if s <= duration][:DEFAULT_STEP_COUNT]
+
+
+def within_text(value: float, duration: float) -> str:
+    """A time within a bound, as read: the whole run, 'at once', or seconds (the terminal's and the report's)."""
+    if value >= duration:
+        return "whole run"
+    return "at once" if value == 0 else f"{value:.4g} s"
 
 
 def horizon_methods() -> list:

@@ -228,8 +228,27 @@ def cf4_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, si
 # the Lie group variational integrator (Lee, Leok & McClamroch)
 # ------------------------------------------------------------------------------------------------
 #: The implicit equation's Newton iterations at most, and the fixed-point iterations on the end torque at most (a
-#: torque that depends on the rate: a gyrostat's wheels); both stop where the update is round-off.
-LGVI_NEWTON, LGVI_FIXED_POINT = 30, 50
+#: torque that depends on the rate: a gyrostat's wheels; the LGVI's and the splittings' last half kick); both stop
+#: where the update is round-off.
+LGVI_NEWTON, END_TORQUE_ITERATIONS = 30, 50
+
+
+@ijit
+def end_torque(t_end, q, base, h, Iinv, tk, tP, tT, M1, M2, P, wn):
+    """The torque ``M1`` at a step's end where it depends on the end's rate, ``J^-1 (base + h/2 M1)``: iterated to a
+    fixed point from the guess in ``M1`` (``M2``, ``P``, ``wn`` scratch). The LGVI's ``Pi_k+1`` and the splittings'
+    last half kick are both ``base + h/2 M1``."""
+    for _ in range(END_TORQUE_ITERATIONS):
+        for i in range(3):
+            P[i] = base[i] + 0.5 * h * M1[i]
+        for i in range(3):
+            wn[i] = Iinv[i, 0] * P[0] + Iinv[i, 1] * P[1] + Iinv[i, 2] * P[2]
+        torque_eval(tk, tP, tT, t_end, q, wn, M2)
+        change = abs(M2[0] - M1[0]) + abs(M2[1] - M1[1]) + abs(M2[2] - M1[2])
+        for i in range(3):
+            M1[i] = M2[i]
+        if change <= 4e-16 * (abs(M1[0]) + abs(M1[1]) + abs(M1[2])):
+            break
 
 
 @jit
@@ -330,17 +349,7 @@ def lgvi_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, s
     rotate_back(qf, tmp, base)  # F^T (Pi_k + h/2 M_k)
     for i in range(3):
         M1[i] = M0[i]  # the start's torque: the first guess of the end's
-    for _ in range(LGVI_FIXED_POINT):
-        for i in range(3):
-            tmp[i] = base[i] + 0.5 * h * M1[i]
-        for i in range(3):
-            wn[i] = Iinv[i, 0] * tmp[0] + Iinv[i, 1] * tmp[1] + Iinv[i, 2] * tmp[2]
-        torque_eval(tk, tP, tT, t + h, qn, wn, M2)
-        change = abs(M2[0] - M1[0]) + abs(M2[1] - M1[1]) + abs(M2[2] - M1[2])
-        for i in range(3):
-            M1[i] = M2[i]
-        if change <= 4e-16 * (abs(M1[0]) + abs(M1[1]) + abs(M1[2])):
-            break
+    end_torque(t + h, qn, base, h, Iinv, tk, tP, tT, M1, M2, tmp, wn)
     for i in range(3):
         tmp[i] = base[i] + 0.5 * h * M1[i]
     n = np.sqrt(qn[0] * qn[0] + qn[1] * qn[1] + qn[2] * qn[2] + qn[3] * qn[3])
@@ -356,8 +365,6 @@ def lgvi_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, s
 # ------------------------------------------------------------------------------------------------
 #: The triple jump's fractions of the step (Yoshida 1990, eq. 5.4): three Strang steps of 4th order together.
 YOSHIDA4 = (1.0 / (2.0 - 2.0 ** (1.0 / 3.0)), 1.0 - 2.0 / (2.0 - 2.0 ** (1.0 / 3.0)), 1.0 / (2.0 - 2.0 ** (1.0 / 3.0)))
-#: The last half kick's fixed-point iterations at most, where the torque depends on the rate.
-SPLIT_FIXED_POINT = 50
 
 
 @ijit
@@ -399,17 +406,7 @@ def strang(t, y, h, I, Iinv, tk, tP, tT, work):
     torque_eval(tk, tP, tT, t + h, q, wn, M1)
     rate = torque_needs_rate(tk, tP)
     if rate:
-        for _ in range(SPLIT_FIXED_POINT):
-            for i in range(3):
-                Pi[i] = Pe[i] + 0.5 * h * M1[i]
-            for i in range(3):
-                wn[i] = Iinv[i, 0] * Pi[0] + Iinv[i, 1] * Pi[1] + Iinv[i, 2] * Pi[2]
-            torque_eval(tk, tP, tT, t + h, q, wn, M2)
-            change = abs(M2[0] - M1[0]) + abs(M2[1] - M1[1]) + abs(M2[2] - M1[2])
-            for i in range(3):
-                M1[i] = M2[i]
-            if change <= 4e-16 * (abs(M1[0]) + abs(M1[1]) + abs(M1[2])):
-                break
+        end_torque(t + h, q, Pe, h, Iinv, tk, tP, tT, M1, M2, Pi, wn)
     for i in range(3):
         cP[i] = Pe[i] + 0.5 * h * M1[i]
     for i in range(3):
