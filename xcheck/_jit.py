@@ -27,19 +27,20 @@ from pathlib import Path
 
 import numba
 from numba import njit, prange  # noqa: F401  (re-exported)
+from numba.extending import intrinsic
 from numba.core import caching, config
 
 from . import __version__
 
-__all__ = ["njit", "prange", "numba", "cache_root", "user_cache_home", "compiled_code_loaded", "COMPILED_SOURCES"]
+__all__ = ["njit", "prange", "numba", "cache_root", "user_cache_home", "compiled_code_loaded", "COMPILED_SOURCES",
+           "stop_requested"]
 
 PACKAGE = Path(__file__).resolve().parent
 #: The package files with ``cache=True`` functions, relative to the package folder.
-COMPILED_SOURCES = ("fields/kernel.py", *(f"integrators/kernels/{f}.py" for f in ("_variant", "registry", "helpers",
-                                                                                  "freeflow", "schemes", "lanes",
-                                                                                  "steps", "loops")),
-                    "integrators/dop853.py", "determination/methods.py", "engines/held_input.py",
-                    "metrics.py")
+COMPILED_SOURCES = ("_jit.py", "fields/kernel.py",
+                    *(f"integrators/kernels/{f}.py" for f in ("_variant", "registry", "helpers", "freeflow", "schemes",
+                                                              "lanes", "steps", "loops")),
+                    "integrators/dop853.py", "determination/methods.py", "engines/held_input.py", "metrics.py")
 
 
 def user_cache_home() -> Path:
@@ -104,3 +105,23 @@ def _install() -> None:
 
 
 _install()
+
+
+@intrinsic
+def _load_flag(typingctx, flag):
+    """``flag[0]`` read as an atomic (monotonic) load: the compiler keeps it inside the loop that polls it (a plain
+    load of an array the loop never writes may be hoisted out of it, and the loop would never see the flag set)."""
+    if not (isinstance(flag, numba.types.Array) and flag.dtype == numba.types.int64):
+        return None
+
+    def codegen(context, builder, signature, args):
+        array = context.make_array(signature.args[0])(context, builder, args[0])
+        return builder.load_atomic(array.data, "monotonic", 8)
+
+    return numba.types.int64(flag), codegen
+
+
+@njit(cache=True, inline="always", _nrt=False)
+def stop_requested(flag):
+    """Whether a stop was asked for (:func:`xcheck.base.interrupts.stop_flag`): the poll of every long compiled loop."""
+    return _load_flag(flag) != 0

@@ -1,9 +1,18 @@
 """Ctrl-C and SIGTERM as exceptions that unwind a command (and clean up) wherever they land, held back where files
-must land together, and the progress bar that is also where a swallowed interrupt is raised again."""
+must land together, the stop flag that ends a compiled loop when one arrives, and the progress bar that is also where
+a swallowed interrupt is raised again.
+
+Python runs a signal's handler only between two of its own instructions: inside a compiled loop (numba's), a Ctrl-C
+would wait for the loop to end, hours for a body it cannot step quickly (issue 58). So every long compiled loop polls
+:func:`stop_flag` (``xcheck._jit.stop_requested``) and returns, saying it was stopped, once it is set; the compiled code
+releases the interpreter's lock, and a thread of this process (:func:`watch_signals`) sets the flag as a signal
+arrives, woken by the byte Python's own C handler writes to its wakeup file descriptor. The handler then raises the
+interrupt as the loop returns."""
 
 from __future__ import annotations
 
 import signal
+import socket
 import sys
 import threading
 import time
@@ -21,6 +30,81 @@ SIGNALLED: list = []
 #: An interrupt raised inside an object's ``__del__`` is printed as "Exception ignored" and lost; it is raised once
 #: more this long after the signal, wherever the work is then (the clean-up steps survive a second interrupt).
 REPEAT_INTERRUPT = 0.5
+
+
+#: The stop flag every long compiled loop polls (:func:`stop_flag`), once made: nonzero (the signal's number) once
+#: SIGINT or SIGTERM has arrived while one ran.
+_FLAG: list = []
+
+
+def stop_flag():
+    """The stop flag: one ``int64`` array of one element for the process (a compiled loop reads the array it is
+    handed, so it is passed, never a copy); cleared by :func:`clear_stop` where a run starts from Python. Made on first
+    use: this module is imported before the signal handlers are installed, numpy after them."""
+    if not _FLAG:
+        import numpy as np
+
+        _FLAG.append(np.zeros(1, dtype=np.int64))
+    return _FLAG[0]
+#: The signals that stop a compiled loop (SIGALRM: :data:`REPEAT_INTERRUPT`'s repeat, once a signal has arrived).
+_STOPPING = {signal.SIGINT, signal.SIGTERM}
+_WATCH: dict = {}
+
+
+def _watch(sock) -> None:
+    """The watcher thread: each byte is a signal's number (written by Python's C-level handler, whatever the main
+    thread is doing); SIGINT and SIGTERM set the stop flag."""
+    while True:
+        try:
+            data = sock.recv(64)
+        except OSError:
+            return
+        if not data:
+            return
+        for signum in data:
+            if signum in _STOPPING or (signum == getattr(signal, "SIGALRM", -1) and SIGNALLED):
+                stop_flag()[0] = signum
+
+
+def watch_signals() -> bool:
+    """Have SIGINT and SIGTERM set the stop flag (see the module docstring) from now on, in this process: a wakeup
+    file descriptor and a daemon thread reading it, made once. Only from the main thread, and only where nobody else
+    (an asyncio loop) has set a wakeup descriptor; False where it could not be. Called as a command starts and as a
+    compiled run starts (a library's or the tests' calls are stopped by Ctrl-C too)."""
+    if _WATCH:
+        return True
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "set_wakeup_fd"):
+        return False
+    reader, writer = socket.socketpair()
+    writer.setblocking(False)
+    try:
+        previous = signal.set_wakeup_fd(writer.fileno(), warn_on_full_buffer=False)
+    except (ValueError, OSError):
+        reader.close(), writer.close()
+        return False
+    if previous != -1:  # somebody else's: theirs stays
+        signal.set_wakeup_fd(previous)
+        reader.close(), writer.close()
+        return False
+    _WATCH.update(reader=reader, writer=writer,
+                  thread=threading.Thread(target=_watch, args=(reader,), name="xcheck-stop-watch", daemon=True))
+    _WATCH["thread"].start()
+    return True
+
+
+def clear_stop() -> None:
+    """A compiled run starting from Python runs until it is stopped again (an interrupt already handled, in a
+    notebook or a test, does not stop the next run)."""
+    if _FLAG:
+        _FLAG[0][0] = 0
+
+
+def raise_stopped() -> None:
+    """A compiled loop returned because the stop flag was set: the interrupt it stands for (Python's own handler has
+    usually raised it already, as the loop returned)."""
+    if not SIGNALLED:
+        SIGNALLED.append(int(stop_flag()[0]) or signal.SIGINT)
+    raise as_interrupt()
 
 
 def _on_sigterm(signum, frame):
@@ -84,7 +168,9 @@ def signals_as_interrupts():
     printed. Everything is restored as the block ends."""
     previous = None
     SIGNALLED.clear()  # a command run again in the same process (the tests) starts uninterrupted
+    clear_stop()
     if threading.current_thread() is threading.main_thread():
+        watch_signals()
         previous = [(sig, signal.signal(sig, handler)) for sig, handler in
                     ((signal.SIGTERM, _on_sigterm), (signal.SIGINT, _on_sigint),
                      *(((signal.SIGALRM, _on_alarm),) if hasattr(signal, "SIGALRM") else ()))]

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import rotations as rot
+from ..base.interrupts import clear_stop, raise_stopped, stop_flag, watch_signals
 from ..body import validate_inertia
 from ..fields import TorqueModel
 from ..trajectory import (
@@ -89,9 +90,11 @@ def _resolve_torque(torque, duration):
 def _kernel_args(info: Method, sequence: str, *, dt, n, last_h, torque, save_every) -> KernelArgs:
     A, b, c = info.tableau.arrays()
     tk, P, T = torque
+    watch_signals()  # Ctrl-C stops the run (xcheck.base.interrupts)
+    clear_stop()
     return KernelArgs(A=A, b=b, c=c, dt=float(dt), n=int(n), last_h=float(last_h), tk=tk, tP=P, tT=T,
                       axes=np.array(rot._check_seq(sequence), dtype=np.int64), sing_tol=SINGULAR_TOL,
-                      bjorck_tol=BJORCK_TOL, save_every=int(save_every))
+                      bjorck_tol=BJORCK_TOL, save_every=int(save_every), stop=stop_flag())
 
 
 def _singular_message(info, sequence, y_last, t_stop):
@@ -159,6 +162,8 @@ def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, t
     args = _kernel_args(info, sequence, dt=dt, n=n, last_h=last_h, torque=(tk, P, T), save_every=1)
     step = kern.step_of(info.kernel, info.tableau, info.dexp_A)  # made in the variant that runs it
     steps, status = kern.run_one(info.kernel, step, args, y0, I, np.linalg.inv(I), out)
+    if status == kern.INTERRUPTED:
+        raise_stopped()
     y = out[: steps + 1, :m]
     q, omega, extras = info.decode(y, sequence)
     extras["evaluations"] = info.stages * steps  # of the steps completed
@@ -175,7 +180,17 @@ def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, t
         traj.status = "failed"
         traj.message = (f"{info.name}: the state became non-finite in the step from t = {steps * float(dt):.6g} s; "
                         "the trajectory ends at the last good step")
+    elif status == kern.OVER_BUDGET:
+        traj.status = "failed"
+        traj.message = (f"{info.name}: the step from t = {steps * float(dt):.6g} s {over_budget_text(info.kernel)}; "
+                        "the trajectory ends at the last good step")
     return traj
+
+
+def over_budget_text(scheme: int) -> str:
+    """What a step over its budget (status OVER_BUDGET) was: the free flow's, for the splittings."""
+    return (f"turns the body by more than {kernels.MAX_TURN:g} rad (the exact free flow's budget of "
+            f"{kernels.MAX_PIECES} quadrature pieces a step): take a shorter step")
 
 
 @dataclass
@@ -230,11 +245,12 @@ def integrate_batch(method: str, inertia, q0, omega0, *, dt: float, duration: fl
     args = _kernel_args(info, sequence, dt=dt, n=n, last_h=last_h, torque=(tk, P, T), save_every=save_every)
     step = kern.step_of(info.kernel, info.tableau, info.dexp_A)
     kern.run_many(info.kernel, step, args, Y0, I, Iinv, out, steps_done, status)
+    if np.any(status == kern.INTERRUPTED):
+        raise_stopped()
     y = out[:, :, :m].reshape(N * rows, m)
     q, omega, _ = info.decode(y, sequence)  # (sign continuity across trajectories is harmless)
-    full_t = time_grid(n, float(dt), float(duration))
-    t = full_t if save == "all" else full_t[[0, -1]]
-    names = np.array(["ok", "singular", "failed", "failed"])
+    t = time_grid(n, float(dt), float(duration)) if save == "all" else np.array([0.0, float(duration)])
+    names = np.array(["ok", "singular", "failed", "failed", "interrupted", "failed"])
     return BatchResult(t=t, q=q.reshape(N, rows, 4), omega=omega.reshape(N, rows, 3), status=names[status],
                        steps_done=steps_done)
 

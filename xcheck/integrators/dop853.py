@@ -21,7 +21,8 @@ from pathlib import Path
 import numpy as np
 import scipy
 
-from .._jit import njit
+from .._jit import njit, stop_requested
+from ..base.interrupts import clear_stop, raise_stopped, stop_flag, watch_signals
 from ..fields import TorqueModel
 from ..fields.kernel import torque_eval
 
@@ -52,7 +53,7 @@ _D = np.ascontiguousarray(_coefficients.D, dtype=float)  # (4, 16)
 
 #: What the kernel's status means.
 COMPILED_DOP853_STATUS = {0: "ok", 1: "more steps than its budget", 2: "the state became non-finite",
-                          3: "the step became too small", 4: "its dense output's rows ran out"}
+                          3: "the step became too small", 4: "its dense output's rows ran out", 5: "interrupted"}
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -107,15 +108,16 @@ def _dense_value(F, k, y_old, x, out, row):
         out[row, c] = v + y_old[c]
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(cache=True, error_model="numpy", _nrt=False, nogil=True)
 def _solve(y0, ends, rtol, atol, max_steps, I, Iinv, kind, P, T, A, C, B, E3, E5, D, store, t_query, out, ts, yo, F,
-           work):
+           work, stop):
     """From 0 through each time of ``ends`` in turn (restarting there: a torque's breakpoints, then the duration),
     writing the dense output at each time of ``t_query`` (ascending) into ``out`` as the step that covers it is taken.
     With ``store``, every step's dense output is kept in ``ts`` (steps + 1), ``yo`` (steps, 7) and ``F`` (steps, 7, 7)
     (else only the current one, in their first row: no memory grows with the run). Nothing is allocated (no numba
     runtime to load: its first use costs a process ~0.1 s): ``work`` (16 + 8, 7) is the scratch. Returns ``(status,
-    steps)``; status 4 where ``store`` ran out of rows (:data:`COMPILED_DOP853_STATUS`)."""
+    steps)``; status 4 where ``store`` ran out of rows, 5 where ``stop`` was set (polled every step:
+    :func:`xcheck.base.interrupts.stop_flag`) (:data:`COMPILED_DOP853_STATUS`)."""
     n = 7
     S = 12
     K = work[0:16]
@@ -157,6 +159,8 @@ def _solve(y0, ends, rtol, atol, max_steps, I, Iinv, kind, P, T, A, C, B, E3, E5
         while t < t_bound:
             if steps >= max_steps:
                 return 1, steps
+            if stop_requested(stop):
+                return 5, steps
             if store and steps >= capacity:
                 return 4, steps
             min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
@@ -288,13 +292,20 @@ def _run(inertia, q0, omega0, duration, torque, rtol, atol, max_steps, store, t_
             np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(T, dtype=float), _A, _C, _B, _E3, _E5, _D)
     work = np.empty((24, 7))
     rows = 1
+    watch_signals()  # Ctrl-C stops the run (xcheck.base.interrupts)
+    clear_stop()
     if store:  # a first run counts the steps, the second keeps them (a few milliseconds more; no numba runtime)
-        status, rows = _solve(*args, False, t_query, out, np.empty(2), np.empty((1, 7)), np.empty((1, 7, 7)), work)
+        status, rows = _solve(*args, False, t_query, out, np.empty(2), np.empty((1, 7)), np.empty((1, 7, 7)), work,
+                              stop_flag())
+        if status == 5:
+            raise_stopped()
         if status:
             raise RuntimeError(f"the compiled DOP853 stopped after {rows} steps of {duration:g} s: "
                                f"{COMPILED_DOP853_STATUS[int(status)]}")
     ts, yo, F = np.empty(rows + 1), np.empty((max(rows, 1), 7)), np.empty((max(rows, 1), 7, 7))
-    status, steps = _solve(*args, store, t_query, out, ts, yo, F, work)
+    status, steps = _solve(*args, store, t_query, out, ts, yo, F, work, stop_flag())
+    if status == 5:
+        raise_stopped()
     if status:
         raise RuntimeError(f"the compiled DOP853 stopped after {steps} steps of {duration:g} s: "
                            f"{COMPILED_DOP853_STATUS[int(status)]}")

@@ -28,3 +28,4 @@ class KernelArgs(NamedTuple):
     sing_tol: float  # Euler-angle singularity threshold on |det J|
     bjorck_tol: float  # Björck-Bowie stopping tolerance
     save_every: int  # store every this many steps (and the last)
+    stop: np.ndarray  # (1,) int64: the loop returns INTERRUPTED once it is nonzero (xcheck.base.interrupts.stop_flag)

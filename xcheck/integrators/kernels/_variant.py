@@ -22,8 +22,11 @@ if PYTHON_MODE:  # the interpreted twin: same code, Python torque callables
     def jit(f):
         return f
 
-    pjit = ijit = jit_nogil = jit
+    pjit = ijit = jit
     prange = range
+
+    def stop_requested(flag):
+        return flag[0] != 0
 
     def torque_eval(kind, P, T, t, q, w, out):
         """``kind`` is the user's callable ``(t, q, omega) -> (3,)``; ``q`` is passed normalised."""
@@ -50,6 +53,7 @@ else:
     from ... import fields
     from ..._jit import (
         numba,  # numba with xcheck's cache folder (outside the installed package)
+        stop_requested,  # noqa: F401 (the loops' poll of the stop flag)
     )
 
     # numba's pedantic SSA check misfires on IR-inlined code ("variable ... is not in scope"); harmless
@@ -57,10 +61,11 @@ else:
 
     # jit: a helper compiled once and called; ijit: inlined where it is used (see the module docstring).
     # Neither uses numba's runtime: no allocation, no reference counts (numba refuses code that would).
-    jit = numba.njit(cache=True, error_model="numpy", _nrt=False)
+    # Every entry point releases the interpreter's lock while it runs: the thread that sets the stop flag on Ctrl-C
+    # needs it (xcheck.base.interrupts).
+    jit = numba.njit(cache=True, error_model="numpy", _nrt=False, nogil=True)
     ijit = numba.njit(cache=True, error_model="numpy", inline="always", _nrt=False)
-    pjit = numba.njit(cache=True, parallel=True, error_model="numpy")
-    jit_nogil = numba.njit(cache=True, error_model="numpy", _nrt=False, nogil=True)
+    pjit = numba.njit(cache=True, parallel=True, error_model="numpy", nogil=True)
     prange = numba.prange
     torque_eval = fields.torque_eval  # inlined (its evaluators are calls)
     torque_needs_attitude = fields.torque_needs_attitude

@@ -39,6 +39,14 @@ GL4_NODES, GL4_WEIGHTS = 0.5 * (1.0 + _XI), 0.5 * _WI
 GL_PIECE, GL4_PIECE = 0.5, 0.05
 #: The AGM's steps at most (it converges quadratically: 5-6 in double precision, ~10 next to a separatrix).
 AGM_STEPS = 16
+#: A step's budget: the angle's quadrature takes at most this many pieces, a step that turns the body by at most
+#: MAX_TURN [rad] (3 ms of work); a longer one is refused (:func:`free_flow` returns False) instead of running for
+#: as long as it would (issue 58: a thin rod's step once bounded its rate by |m| / J_min, 1.4e9 rad/s, 88 s a step).
+MAX_PIECES = 4096
+MAX_TURN = MAX_PIECES * GL_PIECE
+#: The rate that sets the pieces is |m| / J_min (at most J_max / J_min times the body's largest over its motion: 3
+#: for RAX-1, 2 for the gyroscope), but never more than this many times that largest rate.
+RATE_MARGIN = 16.0
 
 
 @jit
@@ -126,12 +134,13 @@ def free_flow(m, h, V, J, ratios, m_out, dq):
     """The exact torque-free flow over ``h`` of the body momentum ``m`` (body components): ``m_out`` its end and
     ``dq`` the attitude's increment less the identity (body frame, ``q(h) = q(0) + q(0) ⊗ dq``: rounded relative to
     the turn, as ``m_out``). ``V, J`` the principal frame
-    (:func:`principal_frame`); ``ratios`` scratch (:data:`AGM_STEPS`). See the module docstring."""
+    (:func:`principal_frame`); ``ratios`` scratch (:data:`AGM_STEPS`). See the module docstring. Returns False,
+    leaving ``m_out`` and ``dq`` unset, for a step that turns the body by more than :data:`MAX_TURN`."""
     M2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
     if M2 == 0.0:
         dq[0], dq[1], dq[2], dq[3] = 0.0, 0.0, 0.0, 0.0
         m_out[0], m_out[1], m_out[2] = 0.0, 0.0, 0.0
-        return
+        return True
     Mn = np.sqrt(M2)
     p0, p1, p2 = (V[0] * m[0] + V[3] * m[1] + V[6] * m[2], V[1] * m[0] + V[4] * m[1] + V[7] * m[2],
                   V[2] * m[0] + V[5] * m[1] + V[8] * m[2])  # principal components V^T m
@@ -155,7 +164,7 @@ def free_flow(m, h, V, J, ratios, m_out, dq):
         sq = np.sin(0.5 * half)
         dq[0], dq[1], dq[2], dq[3] = -2.0 * sq * sq, s * wb0, s * wb1, s * wb2  # exp(h w / 2) - 1
         m_out[0], m_out[1], m_out[2] = m[0], m[1], m[2]
-        return
+        return True
     a = np.sqrt(K1 * X / D31)
     b = np.sqrt(K2 * X / D32)
     c = np.sqrt(K3 * Y / D31)
@@ -168,9 +177,13 @@ def free_flow(m, h, V, J, ratios, m_out, dq):
     snv, cnv = snv / r, cnv / r
     dnv = np.sqrt(cnv * cnv + mk1 * snv * snv)
     n, scale = agm(mk, mk1, ratios)
-    # the angle: Gauss-Legendre on pieces of the step
-    wmax = Mn / min(abs(K1), abs(K3))
+    # the angle: Gauss-Legendre on pieces of the step, as many as the body's fastest rate turns it by half radians, or
+    # the polhode's own rate: the rate bounded by |m| / J_min, but at most RATE_MARGIN times the largest the motion
+    # reaches (|(a/K1, b/K2, c/K3)|, the amplitudes of m's components): a thin body's |m| / J_min is 1e8 times that
+    wmax = min(Mn / min(abs(K1), abs(K3)), RATE_MARGIN * np.sqrt((a / K1) ** 2 + (b / K2) ** 2 + (c / K3) ** 2))
     turn = abs(h) * max(wmax, abs(lam))
+    if not turn <= MAX_TURN:
+        return False
     short = turn <= GL4_PIECE
     pieces = 1 if short else max(1, int(np.ceil(turn / GL_PIECE)))
     piece = h / pieces
@@ -224,3 +237,4 @@ def free_flow(m, h, V, J, ratios, m_out, dq):
     dq[1] = r0 * g1 + r1 * g0 + r2 * g3 - r3 * g2
     dq[2] = r0 * g2 - r1 * g3 + r2 * g0 + r3 * g1
     dq[3] = r0 * g3 + r1 * g2 - r2 * g1 + r3 * g0
+    return True

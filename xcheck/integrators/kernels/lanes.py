@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._variant import ijit, jit, torque_eval, torque_needs_attitude
-from .registry import NONFINITE, OK, SERIES_ANGLE
+from ._variant import ijit, jit, stop_requested, torque_eval, torque_needs_attitude
+from .registry import INTERRUPTED, NONFINITE, OK, SERIES_ANGLE
 from .helpers import dexpinv_apply, dexpinv_coef_series, dexpinv_coef_trig, euler_rates, exp_coefs_series, exp_coefs_trig, f2_kinematics, qmul_s
 from .schemes import F2, F2_STATE, FIRST, LIE, LIE_STATE, STATE_SIZE
 
@@ -198,12 +198,15 @@ def run_lanes(scheme, stage, after, a, Y0, IL, JL, shared, out, steps_done, stat
             for k in range(nb):
                 Y[l, k] += h * (((RK4_B0 * K0[l, k] + RK4_B1 * K1[l, k]) + RK4_B1 * K2[l, k]) + RK4_B0 * K3[l, k])
         after(Y, C, nb)
+        stopped = stop_requested(a.stop)
         for k in range(nb):
             if status[k0 + k] != OK:
                 continue
             for l in range(m):
                 if not np.isfinite(Y[l, k]):
                     status[k0 + k] = NONFINITE
+            if stopped and status[k0 + k] == OK:
+                status[k0 + k] = INTERRUPTED
             if status[k0 + k] != OK:  # the last good state fills the remaining rows
                 steps_done[k0 + k] = step
                 for r in range(row, out.shape[1]):
@@ -217,6 +220,8 @@ def run_lanes(scheme, stage, after, a, Y0, IL, JL, shared, out, steps_done, stat
                         out[k0 + k, row, l] = Y[l, k]
             row += 1
             until_save = save_every
+        if stopped:
+            return
     for k in range(nb):
         if status[k0 + k] == OK:
             steps_done[k0 + k] = n

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import lanes
-from ._variant import PYTHON_MODE, ijit, jit, jit_nogil, pjit, prange
-from .registry import NONFINITE, OK, SCHEMES
+from ._variant import PYTHON_MODE, ijit, jit, pjit, prange, stop_requested
+from .registry import INTERRUPTED, NONFINITE, OK, SCHEMES
 from .schemes import STATE_SIZE, WORK_SIZE
 from .lanes import LANES, LANES_OF
 from .steps import (RK4_STEP, RK_STEPS, after_step, before_step, cf4_step, lgvi_step, rk_step_for, split2_step,
@@ -23,7 +23,8 @@ def run(scheme, step_fn, a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev):
     """Integrate ``a.n`` steps with ``step_fn`` (a generated RK step, :func:`rk_step_for`, or :func:`cf4_step`) (the last of length
     ``a.last_h``) from ``y0``; store ``y`` every ``a.save_every`` steps and at the end into ``out`` (row 0 =
     ``y0``). ``K, Y, Yhat, work, y, y_prev`` are scratch (:func:`scratch`). Returns (steps done, status): on a
-    singular or non-finite step the loop stops, and ``out``'s remaining rows hold the last good state."""
+    singular or non-finite step, one over its budget, or a stop asked for (``a.stop``, polled every step:
+    INTERRUPTED) the loop stops, and ``out``'s remaining rows hold the last good state."""
     m = STATE_SIZE[scheme]
     for l in range(m):
         y[l] = y0[l]
@@ -32,7 +33,7 @@ def run(scheme, step_fn, a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev):
     until_save = a.save_every
     n, dt, last_h, save_every, bjorck_tol = a.n, a.dt, a.last_h, a.save_every, a.bjorck_tol
     A, b, c = a.A, a.b, a.c  # the record unpacked once per run
-    tk, tP, tT, axes, sing_tol = a.tk, a.tP, a.tT, a.axes, a.sing_tol
+    tk, tP, tT, axes, sing_tol, stop = a.tk, a.tP, a.tT, a.axes, a.sing_tol, a.stop
     for step in range(n):
         h = dt if step < n - 1 else last_h
         t = step * dt
@@ -46,6 +47,8 @@ def run(scheme, step_fn, a, y0, I, Iinv, out, K, Y, Yhat, work, y, y_prev):
             for l in range(m):
                 if not np.isfinite(y[l]):
                     status = NONFINITE
+            if stop_requested(stop):
+                status = INTERRUPTED
         if status != OK:  # the last good state fills the remaining rows
             for r in range(row, out.shape[0]):
                 for l in range(m):
@@ -120,7 +123,7 @@ def _lanes_entry(scheme: int):
                  f"    run_lanes({scheme}, {stage}, {after}, a, Y0, IL, JL, shared, out, steps_done, status, k0, nb,\n"
                  f"              Y, S, K, Yp, tau, C, q, tout)\n",
                  __file__, "exec"), namespace)
-    return jit_nogil(namespace[f"lanes_{ident}"])
+    return jit(namespace[f"lanes_{ident}"])
 
 
 RUN_LANES = {k: _lanes_entry(k) for k in LANES_OF} if not PYTHON_MODE else {}

@@ -6,7 +6,9 @@ from collections import namedtuple
 from dataclasses import dataclass
 
 
-OK, SINGULAR, NONFINITE, NOT_CONVERGED = 0, 1, 2, 3
+OK, SINGULAR, NONFINITE, NOT_CONVERGED, INTERRUPTED, OVER_BUDGET = 0, 1, 2, 3, 4, 5
+#: INTERRUPTED: the run was asked to stop (SIGINT or SIGTERM: :func:`xcheck.base.interrupts.stop_flag`); OVER_BUDGET: a
+#: step would take more work than a step may (:data:`xcheck.integrators.kernels.freeflow.MAX_PIECES`).
 
 # so(3) coefficient series threshold [rad] (as in xcheck.rotations)
 SERIES_ANGLE = 0.1

@@ -12,7 +12,7 @@ import numpy as np
 from ..tableau import RK4
 from ._variant import PYTHON_MODE, ijit, jit, numba, overload, torque_eval, torque_needs_rate
 from .freeflow import free_flow, principal_frame
-from .registry import NOT_CONVERGED, OK, SCHEMES
+from .registry import NOT_CONVERGED, OK, OVER_BUDGET, SCHEMES
 from .helpers import cross, qmul, quat_exp
 from .schemes import CF4_WORK, FIRST, LGVI_STATE, LGVI_WORK, LIE_STATE, SPLIT_STATE, SPLIT_WORK, STATE_SIZE  # noqa: F401 (read by the generated steps' source, and the schemes declared first)
 
@@ -380,7 +380,8 @@ def strang(t, y, h, I, Iinv, tk, tP, tT, work):
     torque free the exact flow itself. A torque that does not depend on the rate is evaluated once a step: the
     end's is the next start's. The end's body momentum is kept too and is the next start's (``J^-1`` then ``J`` again
     rounds it the same way at every step: a drift of 1e-16 a step in |Pi|, 1e-10 rad in the gyroscope's phase after
-    41 000 steps). Both are kept in ``work`` with where they were taken; a start elsewhere computes them again."""
+    41 000 steps). Both are kept in ``work`` with where they were taken; a start elsewhere computes them again.
+    False, ``y`` untouched, where the free flow refuses the step (over its budget: :data:`.freeflow.MAX_TURN`)."""
     S, W = SPLIT_STATE, SPLIT_WORK
     q, w = y[S.p], y[S.w]
     V, J, ratios, Pi, Pe, dq, qn = work[W.V], work[W.J], work[W.ratios], work[W.Pi], work[W.Pe], work[W.dq], work[W.qn]
@@ -394,7 +395,8 @@ def strang(t, y, h, I, Iinv, tk, tP, tT, work):
         torque_eval(tk, tP, tT, t, q, w, M0)
     for i in range(3):
         Pi[i] = (cP[i] if same else I[i, 0] * w[0] + I[i, 1] * w[1] + I[i, 2] * w[2]) + 0.5 * h * M0[i]
-    free_flow(Pi, h, V, J, ratios, Pe, dq)
+    if not free_flow(Pi, h, V, J, ratios, Pe, dq):
+        return False
     qmul(q, dq, qn)  # q ⊗ (dq - 1): q + it is q ⊗ dq, rounded relative to the step's turn
     for i in range(4):
         qn[i] += q[i]
@@ -419,13 +421,13 @@ def strang(t, y, h, I, Iinv, tk, tP, tT, work):
     for i in range(3):
         cw[i] = w[i]
         M0[i] = M1[i]
+    return True
 
 
 @ijit
 def split2_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, sing_tol, work):
     """The Strang splitting around the exact free flow (:func:`strang`): order 2."""
-    strang(t, y, h, I, Iinv, tk, tP, tT, work)
-    return OK
+    return OK if strang(t, y, h, I, Iinv, tk, tP, tT, work) else OVER_BUDGET
 
 
 @ijit
@@ -435,6 +437,7 @@ def split4_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes,
     tc = t
     for k in range(3):
         hk = YOSHIDA4[k] * h
-        strang(tc, y, hk, I, Iinv, tk, tP, tT, work)
+        if not strang(tc, y, hk, I, Iinv, tk, tP, tT, work):
+            return OVER_BUDGET
         tc = tc + hk
     return OK

@@ -1,0 +1,167 @@
+"""Issue 58: every run stops when asked. A compiled loop (numba's) runs without Python's signal handlers; each long one
+polls the stop flag that a thread of the process sets as SIGINT or SIGTERM arrives (xcheck.base.interrupts), so a
+command ends within a second of the signal, exit 130 or 143, nothing written. Before, a thin rod's splitting step took
+88 s and ignored both signals; only SIGKILL ended it.
+
+The bound of one second is the issue's: the loops poll every step (a step of the slowest run here takes 1 ms) and the
+process then unwinds and exits (0.15 s measured); a loop that did not poll would run for minutes."""
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from xcheck.integrators import integrate
+
+linux_only = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads processes from Linux /proc")
+
+#: The thin rod of the issue: principal moments 1e-8, 1, 1 + 5e-9 kg m^2, body rates (1, 10, 10) rad/s.
+ROD_INERTIA = [1e-8, 1.0, 1.0 + 5e-9]
+ROD_RATE = [1.0, 10.0, 10.0]
+ROD_XML = """<mujoco model="thin_rod">
+  <option gravity="0 0 0" timestep="0.01"/>
+  <worldbody>
+    <body name="rod">
+      <freejoint/>
+      <inertial pos="0 0 0" mass="1" diaginertia="1e-8 1 1.000000005"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+#: 100 000 s of it at 5 s a step: 20 000 splitting steps of about 2 ms each (each step's free flow is a quadrature of
+#: 2560 pieces), most of a minute of compiled work in 20 000 rows.
+ROD_TOML = """name = "thin-rod"
+description = "the thin rod of issue 58"
+model = "rod.xml"
+duration = 100000.0
+[initial]
+quaternion = [1.0, 0.0, 0.0, 0.0]
+angular_velocity = [1.0, 10.0, 10.0]
+[study]
+reference = "exact"
+steps = [10.0, 5.0]
+quick_steps = [10.0, 5.0]
+"""
+#: Each library call below runs for minutes uninterrupted (its memory a few rows); "go" is printed just before it.
+CALLS = {
+    "integrate": "integrate('split-strang', np.diag(ROD), [1, 0, 0, 0], W, dt=5.0, duration=2e6)",
+    "integrate_batch, threads": "integrate_batch('split-strang', np.diag(ROD), np.tile([1.0, 0, 0, 0], (2, 1)), "
+                                "np.tile(W, (2, 1)), dt=5.0, duration=2e6)",
+    "integrate_batch, lanes": "integrate_batch('formulation-2', np.diag(ROD), np.tile([1.0, 0, 0, 0], (8, 1)), "
+                              "np.tile(W, (8, 1)), dt=1e-5, duration=2e3)",
+    "dop853": "dop853_at(np.diag([1.0, 2.0, 3.0]), [1, 0, 0, 0], [0.02, 2.0, 0.03], 1e9, [1e9], max_steps=10**12)",
+}
+SCRIPT = """
+import sys
+import numpy as np
+from xcheck.integrators import integrate, integrate_batch
+from xcheck.integrators.dop853 import dop853_at
+ROD, W = {rod!r}, {rate!r}
+{warm}
+print("go", flush=True)
+{call}
+print("finished", flush=True)
+"""
+#: The same calls, short: each compiles (or loads) its kernel before "go", so the signal lands in the loop.
+WARM = {
+    "integrate": "integrate('split-strang', np.diag(ROD), [1, 0, 0, 0], W, dt=5.0, duration=10.0)",
+    "integrate_batch, threads": "integrate_batch('split-strang', np.diag(ROD), np.tile([1.0, 0, 0, 0], (2, 1)), "
+                                "np.tile(W, (2, 1)), dt=5.0, duration=10.0)",
+    "integrate_batch, lanes": "integrate_batch('formulation-2', np.diag(ROD), np.tile([1.0, 0, 0, 0], (8, 1)), "
+                              "np.tile(W, (8, 1)), dt=0.5, duration=1.0)",
+    "dop853": "dop853_at(np.diag([1.0, 2.0, 3.0]), [1, 0, 0, 0], [0.02, 2.0, 0.03], 1.0, [1.0])",
+}
+
+
+def _cpu_seconds(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _computing(proc, seconds: float) -> None:
+    """Wait until ``proc`` has used ``seconds`` more CPU time (it is in its loop); fail if it ends first."""
+    start, deadline = _cpu_seconds(proc.pid), time.monotonic() + 60
+    while _cpu_seconds(proc.pid) < start + seconds:
+        if proc.poll() is not None or time.monotonic() > deadline:
+            proc.kill()
+            pytest.fail(f"ended or stalled before the signal: {proc.communicate()[1][-2000:]}")
+        time.sleep(0.02)
+
+
+def _ended_within(proc, seconds: float):
+    """``(returncode, stdout, stderr, seconds it took)`` once ``proc`` ends, killed (and failing) after 30 s."""
+    t0 = time.monotonic()
+    try:
+        out, err = proc.communicate(timeout=30)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        pytest.fail(f"still running 30 s after the signal (killed): {err[-2000:]}")
+    return proc.returncode, out, err, time.monotonic() - t0
+
+
+@linux_only
+@pytest.mark.parametrize("call", list(CALLS))
+def test_ctrl_c_stops_a_compiled_run_of_the_library(call):
+    """A compiled run started from Python (a notebook's, a test's): Ctrl-C raises KeyboardInterrupt within a second,
+    from inside the loop, wherever it is (one thread, the batch's threads, the lanes' threads, DOP853)."""
+    script = SCRIPT.format(rod=ROD_INERTIA, rate=ROD_RATE, warm=WARM[call], call=CALLS[call])
+    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert proc.stdout.readline().strip() == "go", proc.communicate()
+    _computing(proc, 0.3)
+    proc.send_signal(signal.SIGINT)
+    code, out, err, took = _ended_within(proc, 1.0)
+    assert "KeyboardInterrupt" in err and "finished" not in out, err[-2000:]
+    assert took < 1.0, f"{call}: {took:.2f} s after Ctrl-C"
+
+
+@linux_only
+@pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
+def test_a_signal_stops_xcheck_run_of_the_thin_rod(tmp_path, sig, code, word):
+    """The issue's case: ``xcheck run`` of the thin rod with a splitting, a minute of compiled steps; SIGINT or SIGTERM
+    in the middle of them ends it within a second, exit 130 / 143, one line, no CSV written."""
+    integrate("split-strang", np.diag(ROD_INERTIA), [1, 0, 0, 0], ROD_RATE, dt=5.0, duration=10.0)  # compiled here
+    (tmp_path / "rod.xml").write_text(ROD_XML)
+    (tmp_path / "rod.toml").write_text(ROD_TOML)
+    csv = tmp_path / "rod.csv"
+    proc = subprocess.Popen([sys.executable, "-m", "xcheck", "run", str(tmp_path / "rod.toml"), "--method",
+                             "split-strang", "--dt", "5", "--csv", str(csv)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    _computing(proc, 4.0)  # the imports and the reference take about 2 s of CPU; the run 40 s
+    proc.send_signal(sig)
+    returncode, _, err, took = _ended_within(proc, 1.0)
+    assert returncode == code and f"xcheck: {word}" in err and "Traceback" not in err, err[-2000:]
+    assert took < 1.0, f"{took:.2f} s after the signal"
+    assert not csv.exists() and not list(tmp_path.glob("*.csv*")), list(tmp_path.iterdir())
+
+
+def test_the_flag_stops_a_run_where_it_is_set(monkeypatch):
+    """In-process: the flag set before a run is cleared as it starts (an interrupt already handled does not stop the
+    next run); set by another thread while a compiled run goes on (as the watcher does on a signal), the loop returns
+    at once and the run raises the interrupt it stands for (SIGTERM: Terminated)."""
+    import threading
+
+    from xcheck.base import interrupts
+
+    monkeypatch.setattr(interrupts, "SIGNALLED", [])
+    interrupts.stop_flag()[0] = signal.SIGINT
+    traj = integrate("split-strang", np.diag(ROD_INERTIA), [1, 0, 0, 0], ROD_RATE, dt=0.01, duration=0.1)
+    assert traj.status == "ok" and interrupts.stop_flag()[0] == 0
+    timer = threading.Timer(0.3, lambda: interrupts.stop_flag().__setitem__(0, signal.SIGTERM))
+    timer.start()
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(interrupts.Terminated):  # a minute's run without the flag (3 ms a step)
+            integrate("split-strang", np.diag(ROD_INERTIA), [1, 0, 0, 0], ROD_RATE, dt=5.0, duration=1e5)
+    finally:
+        timer.cancel()
+        interrupts.clear_stop()
+    assert time.monotonic() - t0 < 30
