@@ -240,3 +240,21 @@ def test_the_issues_rods_get_a_study_and_a_thinner_one_is_refused(tmp_path, caps
     err = capsys.readouterr().err
     assert "inertia: no study can be derived" in err and "1e-13 of its largest" in err and "Traceback" not in err
     assert not (tmp_path / "rod.toml").exists()
+
+
+# ------------------------------------------------------------------------------------------------
+# memory bounded like time (issue 58, step 3)
+# ------------------------------------------------------------------------------------------------
+def test_a_horizons_default_steps_are_held_to_the_memory_rule(monkeypatch, capsys):
+    """``xcheck horizon --duration`` with the default steps is held to the rule ``--steps`` and a ``[horizon]`` table
+    are (BYTES_PER_STEP a step, two runs at once, at most half the memory available): at a reduced scale (256 MB
+    available), the near-singular gyroscope over 1000 s at its default horizon steps (its coarsest quick steps, down
+    to 1/256 s; at 1/128 s 128 000 steps, 160 MB for two runs)
+    is refused before any work, exit 2, naming --duration, where it ran (the issue's 10 days ran at 8 GB)."""
+    from xcheck import trajectory
+    from xcheck.cli import main
+
+    monkeypatch.setattr(trajectory, "available_memory", lambda: 256 * 2**20)
+    assert main(["horizon", "gyroscope-near-singular", "--duration", "1000s"]) == 2
+    err = capsys.readouterr().err
+    assert "--duration: the step 0.0078125 s over 1000 s is 1.28e+05 steps" in err and "GiB" in err, err

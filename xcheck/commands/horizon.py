@@ -39,9 +39,15 @@ def _steps(text: str | None, scenario, duration: float) -> list[float]:
     ``[horizon]`` steps, else the scenario's coarsest quick steps (:func:`~xcheck.study.horizon.default_steps`)."""
     if text is not None:
         return steps_arg(text, dataclasses.replace(scenario, duration=duration))
+    from ..scenario import check_steps
     from ..study.horizon import default_steps
 
-    return default_steps(scenario, duration)
+    steps = default_steps(scenario, duration)
+    try:  # the rule --steps and a [horizon] table are held to, on the default steps over this duration (issue 58)
+        return list(check_steps(steps, duration))
+    except ValueError as exc:
+        raise UsageError(f"--duration: {exc} (scenario {scenario.name}, the horizon's steps "
+                         f"{', '.join(f'{s:g}' for s in steps)} s)") from None
 
 
 def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: str | None, json: str | None,
