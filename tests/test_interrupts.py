@@ -258,3 +258,31 @@ def test_a_horizons_default_steps_are_held_to_the_memory_rule(monkeypatch, capsy
     assert main(["horizon", "gyroscope-near-singular", "--duration", "1000s"]) == 2
     err = capsys.readouterr().err
     assert "--duration: the step 0.0078125 s over 1000 s is 1.28e+05 steps" in err and "GiB" in err, err
+
+
+@pytest.mark.parametrize("header", [True, False])
+def test_a_line_longer_than_any_row_is_refused_at_once_in_one_line(tmp_path, header):
+    """A trajectory file with no line break (a header of 16 MB, or 16 MB of numbers after one) is refused as the
+    reader meets it: the reader's largest allocation stays below 2 MB (counted by tracemalloc; it held the whole line,
+    33 MB and more, then echoed it in the message), and the message is one short line."""
+    import tracemalloc
+
+    from xcheck.scoring.convention import Convention
+    from xcheck.scoring.reader import TrajectoryFileError, read_samples
+
+    path = tmp_path / "one-line.csv"
+    with open(path, "w") as f:
+        if not header:
+            f.write("t_s,qw,qx,qy,qz\n")
+        f.write("0.123456789," * (16 * 2**20 // 12))
+    conv = Convention(file=path, name="one-line")
+    tracemalloc.start()
+    try:
+        with pytest.raises(TrajectoryFileError) as caught:
+            read_samples(conv, duration=10.0)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 2 * 2**20, peak
+    message = str(caught.value)
+    assert f"line {1 if header else 2} is longer than 65536 characters" in message and len(message) < 300

@@ -185,7 +185,7 @@ def columns_of(conv: Convention, header: list[str], where: str) -> tuple[str, tu
     (``where``), the declaration's key and the columns the file has when one is missing."""
     have = set(header)
     time = conv.time or next((c for c in TIME_COLUMNS if c in have), None)
-    shown = ", ".join(header[:12]) + (", ..." if len(header) > 12 else "")
+    shown = ", ".join(h if len(h) <= 40 else h[:37] + "..." for h in header[:12]) + (", ..." if len(header) > 12 else "")
     if time is None or time not in have:
         raise ValueError(f"{where}: no time column {conv.time or ' or '.join(TIME_COLUMNS)!r} (time); the header has: "
                          f"{shown}")

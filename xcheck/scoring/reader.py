@@ -2,7 +2,9 @@
 before it are skipped), read a block of lines at a time, keeping only the columns its :class:`Convention` uses.
 
 Memory: 8 bytes per row for each column read (the time, 3 to 9 attitude columns and 3 rates: 64 MB for a million
-rows of quaternions and rates) plus one block of text (:data:`BLOCK` lines), whatever else the file holds.
+rows of quaternions and rates) plus one block of text (:data:`BLOCK` lines, at most :data:`BLOCK_CHARS` characters),
+whatever else the file holds. A line is at most :data:`MAX_LINE` characters: a longer one (a file with no line
+breaks, read as one header of gigabytes: 8.6 GB for a 2 GB file, issue 58) is refused as it is met, in one line.
 
 Bad input is refused with the file, the line and the column named (:class:`TrajectoryFileError`, exit 2): a file
 that is not UTF-8 text, no header, a missing column, a row with too few fields or a field that is not a number, a
@@ -14,7 +16,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from itertools import islice
 from pathlib import Path
 
 import numpy as np
@@ -25,8 +26,11 @@ from .convention import MAX_FILE_BYTES, Convention, columns_of
 
 __all__ = ["TrajectoryFileError", "Samples", "read_samples", "BLOCK"]
 
-#: Lines parsed at a time.
+#: Lines parsed at a time, and their characters at most.
 BLOCK = 65536
+BLOCK_CHARS = 16 * 2**20
+#: The longest line read [characters]: a header of 3000 columns, or a row of hundreds of numbers.
+MAX_LINE = 65536
 
 
 class TrajectoryFileError(UserError):
@@ -67,10 +71,38 @@ def read_samples(conv: Convention, *, duration: float | None = None, path: Path 
         _fail(path, f"cannot be read ({exc.strerror or exc})")
 
 
+def _lines(f, path):
+    """The lines of ``f``, each read with a bound (:data:`MAX_LINE`): a longer one is refused as it is met."""
+    number = 0
+    while True:
+        line = f.readline(MAX_LINE + 1)
+        if not line:
+            return
+        number += 1
+        if len(line) > MAX_LINE and not line.endswith(("\n", "\r")):
+            _fail(path, f"line {number} is longer than {MAX_LINE} characters (no line break within them): a trajectory "
+                        "file is a CSV of one sample a line")
+        yield line
+
+
+def _blocks(lines):
+    """The lines in blocks of at most :data:`BLOCK` lines and :data:`BLOCK_CHARS` characters."""
+    block, chars = [], 0
+    for line in lines:
+        block.append(line)
+        chars += len(line)
+        if len(block) >= BLOCK or chars >= BLOCK_CHARS:
+            yield block
+            block, chars = [], 0
+    if block:
+        yield block
+
+
 def _read(f, path, conv: Convention, duration):
     line_no = 0
     header = None
-    for raw in f:
+    lines = _lines(f, path)
+    for raw in lines:
         line_no += 1
         text = raw.strip()
         if text and not text.startswith("#"):
@@ -85,10 +117,7 @@ def _read(f, path, conv: Convention, duration):
     names = [time_col, *att_cols, *(rate_cols or ())]
     use = [header.index(c) for c in names]
     blocks, line_blocks = [], []
-    while True:
-        chunk = list(islice(f, BLOCK))
-        if not chunk:
-            break
+    for chunk in _blocks(lines):
         kept = [k for k, s in enumerate(chunk) if s.strip() and not s.lstrip().startswith("#")]
         rows = [chunk[k] for k in kept]
         if rows:
