@@ -263,8 +263,9 @@ def test_a_horizons_default_steps_are_held_to_the_memory_rule(monkeypatch, capsy
 @pytest.mark.parametrize("header", [True, False])
 def test_a_line_longer_than_any_row_is_refused_at_once_in_one_line(tmp_path, header):
     """A trajectory file with no line break (a header of 16 MB, or 16 MB of numbers after one) is refused as the
-    reader meets it: the reader's largest allocation stays below 2 MB (counted by tracemalloc; it held the whole line,
-    33 MB and more, then echoed it in the message), and the message is one short line."""
+    reader meets it: the reader's largest allocation stays below 4 MB (counted by tracemalloc: the line count's megabyte
+    and one line; it held the whole line, 33 MB and more, then echoed it in the message), and the message is one short
+    line."""
     import tracemalloc
 
     from xcheck.scoring.convention import Convention
@@ -283,6 +284,34 @@ def test_a_line_longer_than_any_row_is_refused_at_once_in_one_line(tmp_path, hea
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
-    assert peak < 2 * 2**20, peak
+    assert peak < 4 * 2**20, peak
     message = str(caught.value)
     assert f"line {1 if header else 2} is longer than 65536 characters" in message and len(message) < 300
+
+
+def test_a_file_too_large_to_score_is_refused_before_it_is_parsed(tmp_path, monkeypatch):
+    """Scoring holds BYTES_PER_ROW (640 B) a row: at a reduced scale (64 MB available), a file of 200 000 rows (128 MB
+    to score) is refused before any row is parsed, naming its lines, the memory and what to do; the reader's largest
+    allocation stays below 4 MB (tracemalloc: the line count's megabyte; it read every row, 64 B each and more, then
+    scored them)."""
+    import tracemalloc
+
+    from xcheck import trajectory
+    from xcheck.scoring.convention import Convention
+    from xcheck.scoring.reader import TrajectoryFileError, read_samples
+
+    path = tmp_path / "long.csv"
+    t = np.linspace(0.0, 10.0, 200_000)
+    with open(path, "w") as f:
+        f.write("t_s,qw,qx,qy,qz\n")
+        f.writelines(f"{x!r},1,0,0,0\n" for x in t)
+    monkeypatch.setattr(trajectory, "available_memory", lambda: 64 * 2**20)
+    tracemalloc.start()
+    try:
+        with pytest.raises(TrajectoryFileError) as caught:
+            read_samples(Convention(file=path, name="long"), duration=10.0)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 4 * 2**20, peak
+    assert "200,001 lines: scoring as many rows needs about 0.119 GiB (640 bytes a row)" in str(caught.value)

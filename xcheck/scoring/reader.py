@@ -1,9 +1,11 @@
 """Reading a trajectory file: a CSV of one sample a row, with a header naming its columns (``#`` comment lines
 before it are skipped), read a block of lines at a time, keeping only the columns its :class:`Convention` uses.
 
-Memory: 8 bytes per row for each column read (the time, 3 to 9 attitude columns and 3 rates: 64 MB for a million
-rows of quaternions and rates) plus one block of text (:data:`BLOCK` lines, at most :data:`BLOCK_CHARS` characters),
-whatever else the file holds. A line is at most :data:`MAX_LINE` characters: a longer one (a file with no line
+Memory: reading holds 8 bytes per row for each column read (the time, 3 to 9 attitude columns and 3 rates: 64 MB
+for a million rows of quaternions and rates) plus one block of text (:data:`BLOCK` lines, at most :data:`BLOCK_CHARS`
+characters), whatever else the file holds; scoring the rows holds :data:`BYTES_PER_ROW` a row in all (the
+reference at every row, the errors, the invariants, the detective's readings). A file whose lines (counted first, a
+megabyte at a time) would need more than half the memory available is refused before any of it is parsed. A line is at most :data:`MAX_LINE` characters: a longer one (a file with no line
 breaks, read as one header of gigabytes: 8.6 GB for a 2 GB file, issue 58) is refused as it is met, in one line.
 
 Bad input is refused with the file, the line and the column named (:class:`TrajectoryFileError`, exit 2): a file
@@ -24,13 +26,16 @@ from ..base.errors import UserError
 from ..paths import input_problem
 from .convention import MAX_FILE_BYTES, Convention, columns_of
 
-__all__ = ["TrajectoryFileError", "Samples", "read_samples", "BLOCK"]
+__all__ = ["TrajectoryFileError", "Samples", "read_samples", "check_rows", "BLOCK", "BYTES_PER_ROW"]
 
 #: Lines parsed at a time, and their characters at most.
 BLOCK = 65536
 BLOCK_CHARS = 16 * 2**20
 #: The longest line read [characters]: a header of 3000 columns, or a row of hundreds of numbers.
 MAX_LINE = 65536
+#: Peak memory of scoring a file, per row [bytes] (measured with tracemalloc: 320 B for quaternions and rates, passed
+#: or failed and investigated; 4.0 GB of resident memory for 1e7 rows, issue 58), with a margin.
+BYTES_PER_ROW = 640
 
 
 class TrajectoryFileError(UserError):
@@ -62,6 +67,7 @@ def read_samples(conv: Convention, *, duration: float | None = None, path: Path 
     problem = input_problem(path, "trajectory file", limit=MAX_FILE_BYTES)
     if problem:
         raise TrajectoryFileError(problem)
+    check_rows(path)
     try:
         with open(path, encoding="utf-8-sig", newline="") as f:
             return _read(f, path, conv, duration)
@@ -69,6 +75,28 @@ def read_samples(conv: Convention, *, duration: float | None = None, path: Path 
         _fail(path, f"not UTF-8 text (byte {exc.start} of a block): a trajectory file is a CSV")
     except OSError as exc:
         _fail(path, f"cannot be read ({exc.strerror or exc})")
+
+
+def check_rows(path) -> int:
+    """The lines of the file at ``path`` (counted in binary, a megabyte at a time), or a :class:`TrajectoryFileError`
+    where scoring as many rows (:data:`BYTES_PER_ROW` each) would need more than half the memory available."""
+    from ..trajectory import available_memory
+
+    lines, last = 0, b"\n"
+    try:
+        with open(path, "rb") as f:
+            while chunk := f.read(2**20):
+                lines += chunk.count(b"\n")
+                last = chunk[-1:]
+    except OSError as exc:
+        _fail(path, f"cannot be read ({exc.strerror or exc})")
+    lines += last != b"\n"
+    need, avail = lines * BYTES_PER_ROW, available_memory()
+    if avail is not None and need > avail / 2:
+        _fail(path, f"{lines:,} lines: scoring as many rows needs about {need / 2**30:.3g} GiB ({BYTES_PER_ROW} bytes a "
+                    f"row), more than half of the {avail / 2**30:.3g} GiB available here: score a part of it, or every "
+                    "n-th row")
+    return lines
 
 
 def _lines(f, path):
