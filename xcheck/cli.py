@@ -66,7 +66,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "Basilisk's methods when it is installed)")
 
     p = sub.add_parser("horizon", help="one scenario over a long duration: how each method's errors grow")
-    p.add_argument("scenario", help="a bundled scenario name or a scenario .toml file")
+    p.add_argument("scenario", help="a bundled scenario name, a scenario .toml file, or an MJCF model alone "
+                                    "(MODEL.xml, MODEL.xml#KEYFRAME)")
     p.add_argument("--duration", help="how long: seconds, or with a unit (5400s, 90min, 1h, 1d); default the "
                                       "scenario's [horizon], else 100 times its duration")
     p.add_argument("--steps", help="comma-separated steps in seconds (default: the scenario's [horizon] steps, else "
