@@ -111,19 +111,19 @@ def derive(inertia, q0, omega0, duration: float | None, torque=None) -> StudyDef
     :data:`MIN_MOMENT_RATIO`, or whose pilots' references run out of their budget, is refused (UserError)."""
     I = np.asarray(inertia, dtype=float)
     q0, omega0 = np.asarray(q0, dtype=float), np.asarray(omega0, dtype=float)
+    from .integrators.dop853 import DOP853Failure
+
     moments = np.linalg.eigvalsh(I)
     if not moments[0] >= MIN_MOMENT_RATIO * moments[-1]:
-        raise _too_thin(moments, f"its smallest principal moment is {moments[0] / moments[-1]:.2g} of its largest, "
+        raise _no_study(moments, f"its smallest principal moment is {moments[0] / moments[-1]:.2g} of its largest, "
                                  f"below the {MIN_MOMENT_RATIO:g} a study is derived for")
     try:
         return _derive(I, q0, omega0, duration, torque)
-    except RuntimeError as exc:  # a pilot's reference over its budget: no defaults, and no bug of ours
-        if "compiled DOP853 stopped" not in str(exc):
-            raise
-        raise _too_thin(moments, f"its pilots' reference could not be computed ({exc})") from None
+    except DOP853Failure as exc:  # a pilot's reference over its budget: no defaults, and no bug of ours
+        raise _no_study(moments, f"its pilots' reference could not be computed ({exc})") from None
 
 
-def _too_thin(moments, why: str):
+def _no_study(moments, why: str):
     """The refusal of a body whose study cannot be derived (:data:`MIN_MOMENT_RATIO`)."""
     from .base.errors import UserError
 

@@ -46,8 +46,19 @@ def stop_flag():
 
         _FLAG.append(np.zeros(1, dtype=np.int64))
     return _FLAG[0]
-#: The signals that stop a compiled loop (SIGALRM: :data:`REPEAT_INTERRUPT`'s repeat, once a signal has arrived).
+
+
+def compiled_run_flag():
+    """The stop flag a compiled run starting from Python is handed: the signals watched (:func:`watch_signals`) and
+    the flag cleared (:func:`clear_stop`)."""
+    watch_signals()
+    clear_stop()
+    return stop_flag()
+
+
+#: The signals that stop a compiled loop (and SIGALRM, :data:`REPEAT_INTERRUPT`'s repeat, once one has arrived).
 _STOPPING = {signal.SIGINT, signal.SIGTERM}
+#: The watcher's socket pair and thread, once made (:func:`watch_signals`).
 _WATCH: dict = {}
 
 

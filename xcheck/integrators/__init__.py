@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import rotations as rot
-from ..base.interrupts import clear_stop, raise_stopped, stop_flag, watch_signals
+from ..base.interrupts import compiled_run_flag, raise_stopped
 from ..body import validate_inertia
 from ..fields import TorqueModel
 from ..trajectory import (
@@ -90,11 +90,9 @@ def _resolve_torque(torque, duration):
 def _kernel_args(info: Method, sequence: str, *, dt, n, last_h, torque, save_every) -> KernelArgs:
     A, b, c = info.tableau.arrays()
     tk, P, T = torque
-    watch_signals()  # Ctrl-C stops the run (xcheck.base.interrupts)
-    clear_stop()
     return KernelArgs(A=A, b=b, c=c, dt=float(dt), n=int(n), last_h=float(last_h), tk=tk, tP=P, tT=T,
                       axes=np.array(rot._check_seq(sequence), dtype=np.int64), sing_tol=SINGULAR_TOL,
-                      bjorck_tol=BJORCK_TOL, save_every=int(save_every), stop=stop_flag())
+                      bjorck_tol=BJORCK_TOL, save_every=int(save_every), stop=compiled_run_flag())
 
 
 def _singular_message(info, sequence, y_last, t_stop):
@@ -182,15 +180,10 @@ def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, t
                         "the trajectory ends at the last good step")
     elif status == kern.OVER_BUDGET:
         traj.status = "failed"
-        traj.message = (f"{info.name}: the step from t = {steps * float(dt):.6g} s {over_budget_text(info.kernel)}; "
-                        "the trajectory ends at the last good step")
+        traj.message = (f"{info.name}: the step from t = {steps * float(dt):.6g} s turns the body by more than "
+                        f"{kernels.MAX_TURN:g} rad (the exact free flow's budget of {kernels.MAX_PIECES} quadrature "
+                        "pieces a step): take a shorter step; the trajectory ends at the last good step")
     return traj
-
-
-def over_budget_text(scheme: int) -> str:
-    """What a step over its budget (status OVER_BUDGET) was: the free flow's, for the splittings."""
-    return (f"turns the body by more than {kernels.MAX_TURN:g} rad (the exact free flow's budget of "
-            f"{kernels.MAX_PIECES} quadrature pieces a step): take a shorter step")
 
 
 @dataclass

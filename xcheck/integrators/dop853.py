@@ -22,11 +22,11 @@ import numpy as np
 import scipy
 
 from .._jit import njit, stop_requested
-from ..base.interrupts import clear_stop, raise_stopped, stop_flag, watch_signals
+from ..base.interrupts import compiled_run_flag, raise_stopped
 from ..fields import TorqueModel
 from ..fields.kernel import torque_eval
 
-__all__ = ["dop853_dense", "dop853_at", "DenseSolution", "COMPILED_DOP853_STATUS", "warm"]
+__all__ = ["dop853_dense", "dop853_at", "DenseSolution", "DOP853Failure", "COMPILED_DOP853_STATUS", "warm"]
 
 def _scipy_coefficients():
     """scipy's module of DOP853's coefficients (Hairer's published tableau), loaded from its file alone: importing it
@@ -63,6 +63,11 @@ _D = np.ascontiguousarray(_coefficients.D, dtype=float)  # (4, 16)
 NOISE_FACTOR = 2.0 * float(np.abs(_E5).sum())
 NOISY_REJECTIONS = 1000
 EPS = float(np.finfo(float).eps)
+
+class DOP853Failure(RuntimeError):
+    """The compiled DOP853 stopped before the end (:data:`COMPILED_DOP853_STATUS` says why: its budget, a
+    non-finite state, a step too small)."""
+
 
 #: What the kernel's status means.
 COMPILED_DOP853_STATUS = {0: "ok", 1: "more steps than its budget", 2: "the state became non-finite",
@@ -327,22 +332,21 @@ def _run(inertia, q0, omega0, duration, torque, rtol, atol, max_steps, store, t_
     args = (y0, ends, float(rtol), float(atol), int(max_steps), I, np.linalg.inv(I), int(kind),
             np.ascontiguousarray(P, dtype=float), np.ascontiguousarray(T, dtype=float), _A, _C, _B, _E3, _E5, _D)
     work = np.empty((24, 7))
-    watch_signals()  # Ctrl-C stops the run (xcheck.base.interrupts)
-    clear_stop()
+    stop = compiled_run_flag()  # Ctrl-C stops the run (xcheck.base.interrupts)
     ts, yo, F = np.empty(2), np.empty((1, 7)), np.empty((1, 7, 7))
     for aware in (False, True):  # made aware only where the first run's steps chased their own rounding
         # with ``store``, a first run counts the steps and the second keeps them (a few milliseconds more; no numba
         # runtime); without, the one run is the answer
-        status, steps = _solve(*args, aware, False, t_query, out, ts, yo, F, work, stop_flag())
+        status, steps = _solve(*args, aware, False, t_query, out, ts, yo, F, work, stop)
         if status != 6:
             break
     if store and status == 0:
         ts, yo, F = np.empty(steps + 1), np.empty((max(steps, 1), 7)), np.empty((max(steps, 1), 7, 7))
-        status, steps = _solve(*args, aware, True, t_query, out, ts, yo, F, work, stop_flag())
+        status, steps = _solve(*args, aware, True, t_query, out, ts, yo, F, work, stop)
     if status == 5:
         raise_stopped()
     if status:
-        raise RuntimeError(f"the compiled DOP853 stopped after {steps} steps of {duration:g} s: "
+        raise DOP853Failure(f"the compiled DOP853 stopped after {steps} steps of {duration:g} s: "
                            f"{COMPILED_DOP853_STATUS[int(status)]}")
     return steps, ts, yo, F, out
 

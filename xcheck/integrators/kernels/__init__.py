@@ -82,7 +82,7 @@ from .schemes import (CF4, DCM, EULER, F1, F2, FIRST, GIBBS, LGVI, LIE, MRP, ROT
                       STATE_SIZE, WORK_SIZE)
 from .steps import RK4_STEP, rk_step_for, rk_step_source  # noqa: E402
 
-__all__ = ["VARIANT", "MAX_PIECES", "MAX_TURN", "LANES", "entry_points", "run_many", "run_one", "scratch", "step_of", "NONFINITE",
-           "NOT_CONVERGED", "INTERRUPTED", "OVER_BUDGET", "LGVI", "SPLIT2", "SPLIT4", "OK",
+__all__ = ["VARIANT", "MAX_PIECES", "MAX_TURN", "LANES", "entry_points", "run_many", "run_one", "scratch", "step_of",
+           "NONFINITE", "NOT_CONVERGED", "INTERRUPTED", "OVER_BUDGET", "LGVI", "SPLIT2", "SPLIT4", "OK",
            "SCHEMES", "SINGULAR", "Scheme", "declare", "layout", "size_of", "CF4", "DCM", "EULER", "F1", "F2", "FIRST",
            "GIBBS", "LIE", "MRP", "ROTVEC", "STATE_SIZE", "WORK_SIZE", "RK4_STEP", "rk_step_for", "rk_step_source"]
