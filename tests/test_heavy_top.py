@@ -349,7 +349,7 @@ def test_a_magnetised_top_composes_gravity_and_its_field_in_every_engine():
 def test_a_top_given_alone_takes_the_exact_reference_where_it_reaches_the_motion(tmp_path):
     """xcheck init / report MODEL.xml on a top: tilted by its keyframe, Lagrange's closed form (stated); upright at
     the default rate (the axis at the vertical), DOP853, saying why; either way the model's own torque is named."""
-    from xcheck.scenario import model_scenario_text
+    from xcheck.model_scenario import model_scenario_text
 
     text = TOP.read_text().replace("</worldbody>", "</worldbody>\n  <keyframe><key name='tilted' qpos='0.9914448613738104 "
                                    "0 0.13052619222005157 0' qvel='0 0 15.71'/></keyframe>")

@@ -231,7 +231,7 @@ def test_every_refusal_is_a_user_error_and_exits_2_by_its_type(capsys, monkeypat
 LAYERS = (
     ("base", "paths", "_jit", ""),  # what everyone uses ("" is xcheck itself: its version)
     tuple(CORE),  # the mathematics: rotations, integrators, references, fields, metrics
-    ("models", "engines", "versions", "torque_terms", "scenario", "assembly", "runners",
+    ("models", "engines", "versions", "torque_terms", "scenario", "model_scenario", "assembly", "runners",
      "determination.sensors", "scoring"),  # bodies, engines, scenarios and what they assemble; files scored
     ("study", "determination", "sweep", "league.run", "league.releases", "history.store", "history.matrix",
      "history", "bench"),  # studies and their runs

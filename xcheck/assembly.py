@@ -154,6 +154,7 @@ def check_scenario_model(scenario) -> None:
         raise ScenarioError(f"{scenario.path}: [torque]: {exc}") from None
     if torque is not None:
         _check_torque_finite(scenario, torque)
+    scenario.take_model_step(body)
     if scenario.derive:
         fill_derived(scenario, body, torque)
     if scenario.reference == "exact" and torque is not None:
@@ -188,7 +189,8 @@ def _check_torque_finite(scenario, torque) -> None:
 def fill_derived(scenario, body, torque) -> None:
     """The steps, quick steps and limits a scenario file left out, derived from its body and motion
     (:func:`xcheck.defaults.derive`), in place; each stated among its assumptions (the report says them)."""
-    d = derive(body.inertia_for(scenario.inertia), scenario.q0, scenario.omega0, scenario.duration, torque)
+    d = derive(body.inertia_for(scenario.inertia), scenario.q0, scenario.omega0, scenario.duration, torque,
+               your_step=body.timestep, your_step_why=body.step_source)
     said = []
     if "steps" in scenario.derive:
         scenario.steps = d.steps

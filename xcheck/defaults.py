@@ -35,7 +35,7 @@ import numpy as np
 from . import rotations as rot
 
 __all__ = ["StudyDefaults", "derive", "seed_defaults", "SEED_STEPS", "SEED_QUICK_STEPS", "TURN_PER_STEP", "FLOOR",
-           "QUICK_ERROR", "MAX_STEPS"]
+           "QUICK_ERROR", "MAX_STEPS", "with_your_step"]
 
 #: Seed 004 §3.3: 1/2, 1/4, ..., 1/4096 s (what a study takes where nothing is derived: the bundled scenarios write it)
 SEED_STEPS = tuple(2.0**-k for k in range(1, 13))
@@ -103,12 +103,15 @@ def _ladder(top: float, bottom: float) -> tuple:
     return tuple(top / 2**k for k in range(n))
 
 
-def derive(inertia, q0, omega0, duration: float | None, torque=None) -> StudyDefaults:
+def derive(inertia, q0, omega0, duration: float | None, torque=None, your_step: float | None = None,
+           your_step_why: str = "") -> StudyDefaults:
     """The defaults of a study of this motion (see the module docstring). ``duration`` None: a model alone's, derived
     too. ``inertia`` (3, 3) [kg m^2], ``q0`` [w, x, y, z] body -> world, ``omega0`` [rad/s] body frame, ``torque`` a
     :class:`~xcheck.fields.TorqueModel` or None. Where nothing can be derived (a motion of more than
     :data:`MAX_DERIVE_TURN` rad), the seed's ladder (:func:`seed_defaults`), saying why; a body thinner than
-    :data:`MIN_MOMENT_RATIO`, or whose pilots' references run out of their budget, is refused (UserError)."""
+    :data:`MIN_MOMENT_RATIO`, or whose pilots' references run out of their budget, is refused (UserError).
+    ``your_step`` [s]: the user's own step (an MJCF's ``<option timestep>``; ``your_step_why`` says where it comes
+    from), made one of the steps and the quick steps and bracketed by them (:func:`with_your_step`)."""
     I = np.asarray(inertia, dtype=float)
     q0, omega0 = np.asarray(q0, dtype=float), np.asarray(omega0, dtype=float)
     from .integrators.dop853 import DOP853Failure
@@ -118,9 +121,38 @@ def derive(inertia, q0, omega0, duration: float | None, torque=None) -> StudyDef
         raise _no_study(moments, f"its smallest principal moment is {moments[0] / moments[-1]:.2g} of its largest, "
                                  f"below the {MIN_MOMENT_RATIO:g} a study is derived for")
     try:
-        return _derive(I, q0, omega0, duration, torque)
+        d = _derive(I, q0, omega0, duration, torque, your_step)
     except DOP853Failure as exc:  # a pilot's reference over its budget: no defaults, and no bug of ours
         raise _no_study(moments, f"its pilots' reference could not be computed ({exc})") from None
+    if your_step is not None:
+        for key in ("steps", "quick_steps"):
+            ladder, said = with_your_step(getattr(d, key), float(your_step), d.duration, your_step_why)
+            setattr(d, key, ladder)
+            d.why[key] += said
+    return d
+
+
+def with_your_step(ladder, step: float, duration: float, why: str = "") -> tuple[tuple, str]:
+    """``ladder`` (coarse to fine) with the user's own ``step`` [s] in it (issue 59), and the words that say so:
+    a step of the ladder within 1e-9 of it becomes it exactly (nothing said); else it is added, with one step beyond it where the
+    ladder does not reach past it (twice it, if a run of the ``duration`` still takes two steps; half of it, if a
+    run still takes at most :data:`MAX_STEPS` steps), so that the study brackets it. The ladder's other steps stay
+    (an order is fitted on them: :func:`xcheck.metrics.ladder_steps`). A step longer than ``duration`` is left
+    out, saying so."""
+    ladder = tuple(float(s) for s in ladder)
+    named = f"your step {_label(step)} s" + (f" ({why})" if why else "")
+    if step > duration:
+        return ladder, f"; {named} is longer than the duration ({duration:g} s): not studied"
+    if any(abs(s - step) <= 1e-9 * step for s in ladder):
+        return tuple(step if abs(s - step) <= 1e-9 * step else s for s in ladder), ""  # the answer line names it
+    added = [step]
+    if step > ladder[0] and 2 * step <= duration / 2:
+        added.append(2 * step)
+    if step < ladder[-1] and duration / (step / 2) <= MAX_STEPS:
+        added.append(step / 2)
+    out = tuple(sorted(set(ladder) | set(added), reverse=True))
+    beyond = [s for s in added if s != step]
+    return out, f"; and {named}" + (f", with {_label(beyond[0])} s beyond it" if beyond else "")
 
 
 def _no_study(moments, why: str):
@@ -134,7 +166,7 @@ def _no_study(moments, why: str):
                      f"{MIN_MOMENT_RATIO:g} as thick")
 
 
-def _derive(I, q0, omega0, duration, torque) -> StudyDefaults:
+def _derive(I, q0, omega0, duration, torque, your_step=None) -> StudyDefaults:
     """:func:`derive` of a body thick enough."""
     from .integrators.dop853 import dop853_at
     from .reference import own_period
@@ -221,7 +253,7 @@ def _derive(I, q0, omega0, duration, torque) -> StudyDefaults:
                           + (f"; the finest within {MAX_STEPS} steps a run" if quick[-1] == smallest else ""))
 
     # the limits, from the floor the finest step can reach (round-off grows with the steps and the turn)
-    n = duration / steps[-1]
+    n = duration / min(steps[-1], your_step / 2 if your_step and your_step < steps[-1] else steps[-1])  # yours too
     floor = max(FLOOR, np.finfo(float).eps * fastest * duration * math.sqrt(n))
     limit = max(1e-9, _nice_up(100 * floor))
     why["final_error"] = (f"{limit:g} rad: 1e-9, or 100 times the round-off floor at the finest step "
@@ -327,3 +359,33 @@ DEFAULT_CHECKS = {
     "agreement": 1e-9,  # [rad] MuJoCo RK4 against our best method at the finest step
     "expected_to_fail": [],  # methods whose checks are expected to fail (e.g. Euler angles at gimbal lock)
 }
+
+
+#: An adaptive method's study is a ladder of its own relative tolerances (its absolute tolerance keeps the
+#: method's own proportion), not of its step: 1e-3 (scipy's default, seed 001's) to 1e-10 by decades ...
+DEFAULT_TOLERANCES = tuple(10.0**-k for k in range(3, 11))
+#: ... and three of them, every second decade, in a quick study ...
+QUICK_TOLERANCES = (1e-3, 1e-5, 1e-7)
+#: ... at one output step [s], where its trajectory is compared with the reference: the coarsest step of a
+#: study (seed 004's). It is also the longest step an engine's adaptive integrator may take (Basilisk's integrate
+#: within each task step) and the hold of its time-dependent inputs: a short one would leave its tolerances
+#: nothing to control ...
+ADAPTIVE_STEP = 0.5
+#: ... unless the body turns more than this [rad] in it (:func:`default_adaptive_step`). Basilisk switches its MRPs
+#: to the shadow set only between task steps (|σ| ≤ 1: a turn of at most π): a task step that turns the body by
+#: more than π more can cross their singularity (|σ| → ∞ at a turn of 2π), where its adaptive integrators shrink
+#: their steps and lose accuracy
+#: (seed 001's gyroscope at 15.7 rad/s turns 7.9 rad in ½ s: RKF78 at rtol 1e-7 took 0.30 s for 1.1e-6 rad,
+#: against 0.01 s for 1.6e-6 rad at ⅛ s). 2 rad keeps |σ| below tan((π + 2)/4) = 3.4 within any step.
+ADAPTIVE_TURN = 2.0
+
+
+def default_adaptive_step(omega0, duration: float) -> float:
+    """An adaptive method's output step when the scenario names none: :data:`ADAPTIVE_STEP` (at most the
+    duration), halved while the body's initial rate turns it by more than :data:`ADAPTIVE_TURN` in one step
+    (down to 1/1024 s)."""
+    step = min(ADAPTIVE_STEP, duration)
+    rate = float(np.linalg.norm(omega0))
+    while rate * step > ADAPTIVE_TURN and step > 2.0**-10:
+        step /= 2
+    return step

@@ -19,6 +19,7 @@ __all__ = [
     "world_momentum",
     "invariant_drift",
     "observed_order",
+    "ladder_steps",
     "OrderFit",
     "ORDER_CEILING",
     "ORDER_FLOOR",
@@ -290,6 +291,24 @@ def observed_order(dts, errors, *, ceiling: float = ORDER_CEILING, floor: float 
     finest = local[-points:]
     return OrderFit(float(np.median(finest)), used_dt.tolist(), local,
                     f"median of the local orders between dt = {used_dt[-len(finest) - 1]:.4g} and {used_dt[-1]:.4g} s")
+
+
+def ladder_steps(dts, your_step: float | None) -> list:
+    """The steps an order is fitted on (issue 59): all of ``dts``, but where the user's own step ``your_step`` [s]
+    was added to a ladder of halvings it is off (a model's 0.01 s among 1/64 … 1/1024 s), that step and those at
+    powers of two of it (the one beyond it that brackets it) are left out, so that the order is the ladder's, as it
+    was without them: a pair of steps 1.28 apart turns the round-off's wiggles into wild local orders. (Where the
+    ladder alone shows no order, a study fits every step: :func:`xcheck.study.assemble`.)"""
+    dts = [float(d) for d in dts]
+    if your_step is None or not any(abs(d - your_step) <= 1e-9 * your_step for d in dts):
+        return dts
+
+    def key(d):  # steps at powers of two of each other share it
+        k = float(np.log2(d))
+        return round(k - np.floor(k), 6) % 1.0
+
+    ladder = [d for d in dts if key(d) != key(your_step)]
+    return ladder if len(ladder) >= 3 and len({key(d) for d in ladder}) == 1 else dts
 
 
 # ------------------------------------------------------------------------------------------------

@@ -96,6 +96,18 @@ class MJCFBody(RigidBody):
     wheels: tuple = ()
     #: how many MJCF bodies are welded into this one (a body built from parts: more than 1)
     parts: int = 1
+    #: the model's own step [s] (``<option timestep>``, MuJoCo's default 0.002 s where the file sets none) and
+    #: integrator (``<option integrator>``, as xcheck's method names it: ``euler``, ``rk4``, ``implicit``,
+    #: ``implicitfast``), and whether the file writes the step: the user's step a study anchors on (issue 59)
+    timestep: float = 0.002
+    integrator: str = "euler"
+    timestep_written: bool = False
+
+    @property
+    def step_source(self) -> str:
+        """Where :attr:`timestep` comes from, in words."""
+        return ("the model's <option timestep>" if self.timestep_written
+                else "MuJoCo's default step: the MJCF sets no <option timestep>")
 
     def inertia_with(self, moments) -> np.ndarray:
         """The body-frame inertia tensor with ``moments`` (about the centre of mass) in place of
@@ -310,6 +322,22 @@ def initial_state(path, keyframe: str | None = None) -> InitialState:
                         names, tuple(notes), body=body, wheel_speeds=speeds)
 
 
+#: MuJoCo's integrators (``mjtIntegrator``) under the names of xcheck's methods (``mujoco-<name>``).
+_INTEGRATORS = {int(mujoco.mjtIntegrator.mjINT_EULER): "euler", int(mujoco.mjtIntegrator.mjINT_RK4): "rk4",
+                int(mujoco.mjtIntegrator.mjINT_IMPLICIT): "implicit",
+                int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): "implicitfast"}
+
+
+def _writes_timestep(path) -> bool:
+    """Whether the MJCF file writes ``<option timestep>`` itself (else the model runs at MuJoCo's default step)."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        return any(o.get("timestep") is not None for o in ET.parse(path).getroot().iter("option"))
+    except (ET.ParseError, OSError):
+        return False
+
+
 def _written_key_quaternion(path, k: int, qs: slice) -> np.ndarray | None:
     """The quaternion slots ``qs`` of the ``k``-th ``<key>`` as written in the MJCF file itself (before MuJoCo's
     compiler normalises them), or None where the file does not say (a ``<key>`` in an included file, no ``qpos``)."""
@@ -375,7 +403,9 @@ def _load_mujoco(path: Path, where: str) -> tuple[mujoco.MjModel, MJCFBody]:
                         notes=tuple(notes), body_id=body_id, qpos_adr=int(model.jnt_qposadr[jnt]), dof_adr=dof,
                         model_moments=tuple(moments.tolist()), model_iquat=tuple(np.asarray(iquat).tolist()),
                         joint=joint, centre=tuple(centre.tolist()), gravity=tuple(gravity.tolist()),
-                        reference_quat=tuple(reference.tolist()), wheels=tuple(wheels), parts=len(parts))
+                        reference_quat=tuple(reference.tolist()), wheels=tuple(wheels), parts=len(parts),
+                        timestep=float(model.opt.timestep), integrator=_INTEGRATORS.get(int(model.opt.integrator), ""),
+                        timestep_written=_writes_timestep(path))
     except ValueError as exc:
         raise ModelError(f"{where}: body '{body_name}': {exc}") from None
     return model, body

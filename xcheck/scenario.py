@@ -18,7 +18,18 @@ import numpy as np
 
 from . import rotations as rot
 from .base.errors import ScenarioError, UserError  # noqa: F401 (ScenarioError: read from here too)
-from .defaults import DEFAULT_CHECKS, SEED_QUICK_STEPS, SEED_STEPS, derive  # noqa: F401 (DEFAULT_CHECKS: re-exported)
+from .defaults import (  # noqa: F401 (DEFAULT_CHECKS, the adaptive ladders: re-exported)
+    ADAPTIVE_STEP,
+    ADAPTIVE_TURN,
+    DEFAULT_CHECKS,
+    DEFAULT_TOLERANCES,
+    QUICK_TOLERANCES,
+    SEED_QUICK_STEPS,
+    SEED_STEPS,
+    default_adaptive_step,
+    derive,
+)
+from .model_scenario import model_scenario, model_scenario_text, toml_string  # noqa: F401 (re-exported)
 from .paths import BUNDLED_MODELS, MAX_INPUT_BYTES, foreign_model, input_problem
 from .torque_terms import TORQUE_KINDS, copy_torque, magnetic_term, torque_terms  # noqa: F401 (re-exported)
 from .trajectory import check_initial_state
@@ -28,8 +39,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["Scenario", "ScenarioError", "load_scenario", "scenario_from_model",
-           "model_scenario_text", "is_model_arg", "bundled_scenarios",
+__all__ = ["Scenario", "ScenarioError", "load_scenario", "scenario_from_model", "model_scenario_text", "is_model_arg", "split_model_arg", "bundled_scenarios",
            "resolve_scenario", "check_name", "check_steps", "foreign_model", "torque_terms", "magnetic_term", "copy_torque", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
            "ADAPTIVE_TURN", "default_adaptive_step",
            "SCENARIO_DIR"]
@@ -38,35 +48,6 @@ SCENARIO_DIR = BUNDLED_MODELS / "scenarios"
 #: Seed 004 §3.3's ladder, 1/2 ... 1/4096 s, and the quick one, 1/64 ... 1/1024 s: a file's provisional steps until
 #: its body's are derived (:func:`xcheck.assembly.fill_derived`)
 DEFAULT_STEPS, QUICK_STEPS = SEED_STEPS, SEED_QUICK_STEPS
-#: An adaptive method's study is a ladder of its own relative tolerances (its absolute tolerance keeps the
-#: method's own proportion), not of its step: 1e-3 (scipy's default, seed 001's) to 1e-10 by decades ...
-DEFAULT_TOLERANCES = tuple(10.0**-k for k in range(3, 11))
-#: ... and three of them, every second decade, in a quick study ...
-QUICK_TOLERANCES = (1e-3, 1e-5, 1e-7)
-#: ... at one output step [s], where its trajectory is compared with the reference: the coarsest step of a
-#: study (seed 004's). It is also the longest step an engine's adaptive integrator may take (Basilisk's integrate
-#: within each task step) and the hold of its time-dependent inputs: a short one would leave its tolerances
-#: nothing to control ...
-ADAPTIVE_STEP = 0.5
-#: ... unless the body turns more than this [rad] in it (:func:`default_adaptive_step`). Basilisk switches its MRPs
-#: to the shadow set only between task steps (|σ| ≤ 1: a turn of at most π): a task step that turns the body by
-#: more than π more can cross their singularity (|σ| → ∞ at a turn of 2π), where its adaptive integrators shrink
-#: their steps and lose accuracy
-#: (seed 001's gyroscope at 15.7 rad/s turns 7.9 rad in ½ s: RKF78 at rtol 1e-7 took 0.30 s for 1.1e-6 rad,
-#: against 0.01 s for 1.6e-6 rad at ⅛ s). 2 rad keeps |σ| below tan((π + 2)/4) = 3.4 within any step.
-ADAPTIVE_TURN = 2.0
-
-
-def default_adaptive_step(omega0, duration: float) -> float:
-    """An adaptive method's output step when the scenario names none: :data:`ADAPTIVE_STEP` (at most the
-    duration), halved while the body's initial rate turns it by more than :data:`ADAPTIVE_TURN` in one step
-    (down to 1/1024 s)."""
-    step = min(ADAPTIVE_STEP, duration)
-    rate = float(np.linalg.norm(omega0))
-    while rate * step > ADAPTIVE_TURN and step > 2.0**-10:
-        step /= 2
-    return step
-
 
 #: A scenario name is an identifier: it names files and folders of the report.
 NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,99}")
@@ -144,6 +125,19 @@ class Scenario:
     earth: object = None
     #: the trajectory files scored beside the methods (``[[trajectory]]``, :class:`xcheck.scoring.convention.Convention`)
     trajectories: tuple = ()
+    #: the user's own step [s] (issue 59): the model's ``<option timestep>``, MuJoCo's default where it sets none;
+    #: ``your_step_why`` says which. Derived steps include it and bracket it; the result's first line answers at it.
+    #: None: not known (the model not loaded yet)
+    your_step: float | None = None
+    your_step_why: str = ""
+    #: the model's own integrator (``<option integrator>``, as xcheck names it: euler, rk4, implicit, implicitfast):
+    #: named first among MuJoCo's methods; None: not known
+    your_integrator: str | None = None
+
+    def take_model_step(self, body) -> None:
+        """The model's own step and integrator (an :class:`~xcheck.models.MJCFBody`'s), as the user's."""
+        self.your_step, self.your_step_why = float(body.timestep), body.step_source
+        self.your_integrator = body.integrator or None
 
 
 def _tolerances(st, key, default) -> tuple:
@@ -600,20 +594,8 @@ def resolve_scenario(name_or_path) -> Scenario:
 
 
 # ------------------------------------------------------------------------------------------------------
-# a scenario from an MJCF file alone (xcheck report MODEL.xml, xcheck init)
+# a model named alone (xcheck report MODEL.xml: the scenario is xcheck.model_scenario's), TOML text
 # ------------------------------------------------------------------------------------------------------
-#: An Euler sequence closer to its singularity than this [deg] over the run makes ``euler-rk4`` a method the
-#: scenario expects to fail (it stops there: the seeds' point about Euler angles, not the model's fault).
-EULER_MARGIN_DEG = 10.0
-
-
-#: The [checks] keys ``xcheck init`` writes, each with its comment.
-_CHECK_HELP = {"order_tolerance": "observed order at least expected minus this",
-               "order_excess": "and at most expected plus this",
-               "final_error": "[rad], a fourth-order method at its finest step",
-               "invariant_tolerance": "relative energy and momentum drift",
-               "agreement": "[rad], an engine's RK4 against our best"}
-
 
 def split_model_arg(text: str) -> tuple[Path, str | None]:
     """``MODEL.xml`` or ``MODEL.xml#KEYFRAME`` -> (path, keyframe name or None). A name ending in ``.xml`` is the
@@ -630,170 +612,16 @@ def is_model_arg(text) -> bool:
     return split_model_arg(str(text))[0].suffix.lower() == ".xml"
 
 
-_TOML_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
-
-
-def toml_string(text: str) -> str:
-    """``text`` as a TOML basic string: quotes, backslashes and control characters escaped, anything else as it
-    is (UTF-8). (JSON's escapes are not TOML's: an emoji became two surrogate escapes TOML refuses.) A lone surrogate
-    (a file name that is not UTF-8) is a ScenarioError: a TOML file cannot hold it."""
-    out = []
-    for ch in str(text):
-        code = ord(ch)
-        if 0xD800 <= code <= 0xDFFF:
-            raise ScenarioError(f"{text!r} is not valid Unicode (a file name that is not UTF-8): a TOML file cannot "
-                                "hold it")
-        out.append(_TOML_ESCAPES.get(ch) or (f"\\u{code:04X}" if code < 0x20 or code == 0x7F else ch))
-    return '"' + "".join(out) + '"'
-
-
-def _toml_list(values) -> str:
-    return "[" + ", ".join(repr(float(v)) for v in values) + "]"
-
-
-def _euler_margins(inertia, q0, omega0, duration: float, torque=None, reference: str = "exact") -> dict:
-    """Per Euler sequence, the smallest distance [deg] of its middle angle from the singularity over the motion
-    (the exact solution, or DOP853's under a torque that has none, on 401 times)."""
-    from .reference import dop853_solution, exact_reference
-
-    t = np.linspace(0.0, duration, 401)
-    if reference == "exact":
-        q, _ = exact_reference(inertia, q0, omega0, t, torque)
-    else:
-        q, _ = dop853_solution(inertia, q0, omega0, duration, torque=torque)(t)
-    out = {}
-    for seq in rot.EULER_SEQUENCES:
-        middle = rot.quat_to_euler(q, seq, warn=False)[:, 1]
-        margin = np.minimum(middle, np.pi - middle) if seq[0] == seq[2] else np.pi / 2 - np.abs(middle)
-        out[seq] = float(np.degrees(margin.min()))
-    return out
-
-
-def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | None = None) -> tuple[str, tuple]:
-    """The scenario file that the defaults for an MJCF file stand for, every key present and commented (what
-    ``xcheck init`` writes and what ``xcheck report MODEL.xml`` runs), and the assumptions it makes, in words
-    (the report states them). ``model_ref``: the model as the file names it (relative to where it is written;
-    default: the path as given). :class:`ScenarioError` naming the file for a model xcheck cannot check (its
-    refusal) or a keyframe it does not have."""
-    from .models import ModelError, initial_state
-    from .reference import ReferenceFailure
-
-    model = Path(model)
-    try:
-        state = initial_state(model, keyframe)
-    except ModelError as exc:
-        raise ScenarioError(str(exc)) from None
-    body = state.body
-    stem = model.stem + (f"-{state.keyframe or keyframe}" if keyframe is not None else "")
-    name = re.sub(r"[^A-Za-z0-9_.-]+|\.{2,}", "-", stem).strip("-._")[:100] or "model"  # check_name's identifier
-    from .reference import exact_why_not
-
-    own = body.own_torque(state.omega0, state.wheel_speeds)
-    why_not = exact_why_not(body.inertia, own)
-    reference = "exact" if why_not is None else "dop853"
-    derived = derive(body.inertia, state.q0, state.omega0, None, own)  # steps, duration and limits from the body
-    duration = derived.duration
-    margins = None
-    try:
-        margins = _euler_margins(body.inertia, state.q0, state.omega0, duration, own, reference)
-    except ReferenceFailure as exc:
-        if own is None:
-            margins = exc
-        else:  # a top whose closed form does not reach this motion (its axis at the vertical): DOP853
-            reference, why_not = "dop853", str(exc)
-    except ValueError as exc:
-        margins = exc
-    if own is None:
-        torque_words = "torque free (the model declares no torque)"
-        reference_words = "reference: the exact torque-free solution (closed form)"
-    else:
-        torque_words = f"the model's own torque only: {own.describe()}"
-        exact_words = ("the exact axisymmetric gyrostat (closed form)" if body.wheels
-                       else "the exact heavy symmetric top (Lagrange's, closed form)")
-        reference_words = (f"reference: {exact_words}" if reference == "exact"
-                           else f"reference: DOP853 at rtol 1e-13 ({why_not})")
-    assumptions = [f"initial state: {state.source}", *state.notes, *body.notes,
-                   f"duration {derived.why['duration']}; {torque_words}", reference_words,
-                   f"steps {derived.why['steps']}", f"quick steps {derived.why['quick_steps']}",
-                   *([f"the checks' limits {derived.why['final_error']}"]
-                     if derived.final_error != DEFAULT_CHECKS["final_error"] else [])]
-    expected_to_fail, sequence = [], "323"
-    try:
-        if margins is None:
-            margins = _euler_margins(body.inertia, state.q0, state.omega0, duration, own, reference)
-        if isinstance(margins, Exception):
-            raise margins
-    except (ReferenceFailure, ValueError) as exc:
-        assumptions.append(f"euler-rk4's sequence: 323, unchecked ({exc})")
-    else:
-        sequence = max(rot.EULER_SEQUENCES, key=lambda s: (margins[s], s == "323"))
-        if margins[sequence] < EULER_MARGIN_DEG:
-            expected_to_fail = ["euler-rk4"]
-            assumptions.append(f"euler-rk4 is expected to fail: every Euler sequence comes within "
-                               f"{margins[sequence]:.1f} deg of its singularity in this motion (323 is kept)")
-            sequence = "323"
-        else:
-            assumptions.append(f"euler-rk4's sequence: {sequence}, the one farthest from its singularity over the "
-                               f"run ({margins[sequence]:.1f} deg)")
-    checks = dict(DEFAULT_CHECKS, final_error=derived.final_error, agreement=derived.final_error,
-                  invariant_tolerance=derived.invariant_tolerance)
-    ref = model_ref if model_ref is not None else str(model)
-    fail_list = "[" + ", ".join(f'"{m}"' for m in expected_to_fail) + "]"
-    lines = [
-        f"# A scenario of {model.name}, as xcheck assumes it when given the model alone (xcheck init): every key of a",
-        "# scenario file, with its value for this model. Edit what you know better; xcheck report THIS_FILE runs it.",
-        *(f"#   - {a}" for a in assumptions),
-        f"name = {toml_string(name)}",
-        f"description = {toml_string(f'{model.name}, ' + state.source.split(':')[0] + (', torque free' if own is None else ', with wheels' if body.wheels else ', a top under gravity'))}",
-        f"model = {toml_string(ref)}   # the MJCF file (relative to this file)",
-        f"duration = {duration!r}   # [s], derived: {derived.why['duration']}",
-        "",
-        "[initial]",
-        f"# {state.source}",
-        f"quaternion = {_toml_list(state.q0)}   # [w, x, y, z], body -> world",
-        f"angular_velocity = {_toml_list(state.omega0)}   # [rad/s], body frame",
-        f"euler_sequence = {toml_string(sequence)}   # the sequence euler-rk4 integrates",
-        *([f"wheel_speeds = {_toml_list(state.wheel_speeds)}   # [rad/s], each wheel's relative to the body "
-           f"({', '.join(w.name for w in body.wheels)})"] if body.wheels else []),
-        "",
-        "# [torque]   # none: torque free. A constant torque [N m] in body components:",
-        "# kind = \"constant\"",
-        "# torque = [0.0, 0.0, 1e-4]",
-        "# or a magnetic dipole in a field (kind = \"magnetic\", field = \"uniform\" | \"orbit-dipole\" | \"igrf\" | ...; see",
-        "# docs/scenarios.md); with a torque, the reference is \"dop853\".",
-        "",
-        "[study]",
-        f"reference = \"{reference}\"   # \"exact\": the closed form (torque free, Lagrange's top, the axisymmetric gyrostat); else \"dop853\" "
-        "or \"fine\"",
-        f"steps = {_toml_list(derived.steps)}   # [s], the full study; derived: {derived.why['steps']}",
-        f"quick_steps = {_toml_list(derived.quick_steps)}   # [s], --quick; derived: {derived.why['quick_steps']}",
-        f"tolerances = {_toml_list(DEFAULT_TOLERANCES)}   # an adaptive method's ladder (relative tolerances)",
-        f"quick_tolerances = {_toml_list(QUICK_TOLERANCES)}",
-        f"adaptive_step = {default_adaptive_step(state.omega0, duration)!r}   # [s], an adaptive method's output "
-        f"step (it turns the body by at most {ADAPTIVE_TURN:g} rad at the initial rate)",
-        "# methods = [\"lie-rkmk4\", \"mujoco-rk4\"]   # every method when left out (xcheck list)",
-        "reference_method = \"lie-rkmk4\"   # for reference = \"fine\"",
-        "reference_dt = 0.0001   # [s], for reference = \"fine\"",
-        "",
-        "[checks]",
-        *(f"{k} = {checks[k]!r}   # {why}" + (f"; derived: {derived.why['final_error']}"
-                                               if k in ("final_error", "agreement", "invariant_tolerance") else "")
-          for k, why in _CHECK_HELP.items()),
-        f"expected_to_fail = {fail_list}",
-        "",
-    ]
-    return "\n".join(lines), tuple(assumptions)
-
-
 def scenario_from_model(text) -> Scenario:
     """The scenario of an MJCF file alone, ``MODEL.xml`` or ``MODEL.xml#KEYFRAME`` (see
-    :func:`model_scenario_text`): read as if from the file ``xcheck init`` writes, its assumptions kept for the
+    :func:`xcheck.model_scenario.model_scenario_text`): read as if from the file ``xcheck init`` writes, its assumptions kept for the
     report."""
     path, keyframe = split_model_arg(text)
     problem = input_problem(path, "MJCF file")
     if problem:
         raise ScenarioError(problem)
-    toml_text, assumptions = model_scenario_text(path, keyframe, model_ref=str(path.resolve()))
+    toml_text, assumptions, body = model_scenario(path, keyframe, model_ref=str(path.resolve()))
     scenario = _parse_scenario(toml_text, path, check_model=False)  # loaded just now, and torque free
     scenario.assumptions = assumptions
+    scenario.take_model_step(body)
     return scenario

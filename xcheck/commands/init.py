@@ -21,12 +21,8 @@ def init(*, model: str, keyframe: str | None, out: str | None, force: bool, ctx:
     ``./xcheck_<model>.toml``, which pytest collects through xcheck's plugin)."""
     from ..base.files import check_output_file, write_text_atomic
     from ..paths import input_problem
-    from ..scenario import (
-        foreign_model,
-        is_model_arg,
-        model_scenario_text,
-        split_model_arg,
-    )
+    from ..model_scenario import model_scenario_text
+    from ..scenario import foreign_model, is_model_arg, split_model_arg
 
     foreign = foreign_model(model)
     if foreign:

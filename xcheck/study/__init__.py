@@ -17,6 +17,7 @@ from ..base.errors import UsageError
 from ..metrics import (
     TOLERANCES,
     StepWithin,
+    ladder_steps,
     largest_step_within,
     observed_order,
     tolerance_key,
@@ -120,7 +121,21 @@ def default_methods(scenario: Scenario) -> list[str]:
     if scenario.methods:
         return list(scenario.methods)
     left_out = not_run(scenario)
-    return [m for m, r in RUNNERS.items() if _offered(r) and m not in left_out]
+    return model_integrator_first(scenario, [m for m, r in RUNNERS.items() if _offered(r) and m not in left_out])
+
+
+def model_integrator_first(scenario: Scenario, methods: list) -> list:
+    """``methods`` with MuJoCo's the model runs with (``<option integrator>``: :attr:`Scenario.your_integrator`) first
+    among MuJoCo's, the others in their order (issue 59)."""
+    own = f"mujoco-{scenario.your_integrator}"
+    if own not in methods:
+        return methods
+    slots = [i for i, m in enumerate(methods) if RUNNERS[m].engine == "mujoco"]
+    ordered = sorted((methods[i] for i in slots), key=lambda m: m != own)
+    out = list(methods)
+    for i, m in zip(slots, ordered):
+        out[i] = m
+    return out
 
 
 def _offered(runner) -> bool:
@@ -345,7 +360,10 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
         runner = RUNNERS[name]
         runs = res.runs
         x = [r.setting for r in runs]
-        fit = observed_order(x, [r.attitude_error for r in runs], floor=floor)
+        on_ladder = runs if runner.adaptive else [r for r in runs if r.setting in ladder_steps(x, scenario.your_step)]
+        fit = observed_order([r.setting for r in on_ladder], [r.attitude_error for r in on_ladder], floor=floor)
+        if fit.order is None and len(on_ladder) < len(runs):  # none on the ladder alone: the user's steps too
+            fit = observed_order(x, [r.attitude_error for r in runs], floor=floor)
         within = {tolerance_key(tol): largest_step_within(
             x, [r.max_attitude_error if r.ok else None for r in runs], [r.wall_time for r in runs], tol)
             for tol in TOLERANCES}

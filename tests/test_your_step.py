@@ -1,0 +1,133 @@
+"""The user's own step (issue 59): a model's ``<option timestep>`` (MuJoCo's default 0.002 s where it sets none) is
+one of the study's steps, the derived ladders bracket it, the model's integrator is named first among MuJoCo's
+methods, and an order is still fitted on the ladder of halvings. Truths: the MJCF as written, MuJoCo's documented
+default step (``mjOption.timestep`` = 0.002 s), and errors of a known order."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+#: A free box at 0.01 s with MuJoCo's implicitfast, turning about all three axes (a MuJoCo forum question: does
+#: implicitfast lose energy at 0.01 s?).
+BOX = """<mujoco model="box">
+  <option timestep="0.01" integrator="implicitfast" gravity="0 0 0"/>
+  <worldbody>
+    <body name="box">
+      <freejoint/>
+      <geom type="box" size="0.05 0.1 0.15" mass="1" contype="0" conaffinity="0"/>
+    </body>
+  </worldbody>
+  <keyframe><key qvel="0 0 0 0.3 2.0 0.5"/></keyframe>
+</mujoco>
+"""
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("your-step")
+    (folder / "box.xml").write_text(BOX)
+    (folder / "plain.xml").write_text(BOX.replace('  <option timestep="0.01" integrator="implicitfast" '
+                                                  'gravity="0 0 0"/>\n', ""))
+    return folder
+
+
+def _brackets(steps, step) -> bool:
+    return step in steps and min(steps) < step < max(steps)
+
+
+def test_a_models_own_step_is_studied_and_bracketed(models):
+    """0.01 s (not a power of two) is one of the full and the quick steps, exactly, with steps on both sides."""
+    from xcheck.scenario import resolve_scenario
+
+    sc = resolve_scenario(str(models / "box.xml"))
+    assert sc.your_step == 0.01 and sc.your_step_why == "the model's <option timestep>"
+    assert sc.your_integrator == "implicitfast"
+    assert _brackets(sc.steps, 0.01) and _brackets(sc.quick_steps, 0.01)
+    assert any("your step 0.01 s (the model's <option timestep>)" in a for a in sc.assumptions)
+
+
+def test_mujocos_default_step_where_the_mjcf_sets_none(models):
+    """No <option timestep>: MuJoCo's default, 0.002 s, and its default integrator Euler, said as such."""
+    from xcheck.scenario import resolve_scenario
+
+    sc = resolve_scenario(str(models / "plain.xml"))
+    assert sc.your_step == 0.002 and sc.your_integrator == "euler"
+    assert sc.your_step_why == "MuJoCo's default step: the MJCF sets no <option timestep>"
+    assert _brackets(sc.steps, 0.002) and _brackets(sc.quick_steps, 0.002)
+
+
+def test_the_models_integrator_is_first_among_mujocos(models):
+    from xcheck.scenario import resolve_scenario
+    from xcheck.study import default_methods
+
+    mujoco = [m for m in default_methods(resolve_scenario(str(models / "box.xml"))) if m.startswith("mujoco-")]
+    assert mujoco[:2] == ["mujoco-implicitfast", "mujoco-rk4"]  # the others keep their order
+    plain = [m for m in default_methods(resolve_scenario(str(models / "plain.xml"))) if m.startswith("mujoco-")]
+    assert plain[0] == "mujoco-euler"
+
+
+def test_a_scenario_file_deriving_its_steps_takes_its_models_step(models, tmp_path):
+    """A scenario file that leaves its steps out gets the model's step among the derived ones; one that writes its
+    steps keeps them (they are the user's own choice), the model's step still known."""
+    from xcheck.scenario import load_scenario
+
+    body = ('model = "{}"\nduration = 10.0\n[initial]\nquaternion = [1.0, 0.0, 0.0, 0.0]\n'
+            'angular_velocity = [0.3, 2.0, 0.5]\n').format((models / "box.xml").as_posix())
+    (tmp_path / "derived.toml").write_text(f'name = "derived"\n{body}')
+    sc = load_scenario(tmp_path / "derived.toml")
+    assert _brackets(sc.steps, 0.01) and _brackets(sc.quick_steps, 0.01)
+    (tmp_path / "written.toml").write_text(f'name = "written"\n{body}[study]\nsteps = [0.5, 0.25, 0.125]\n'
+                                           'quick_steps = [0.5, 0.25, 0.125]\n')
+    sc = load_scenario(tmp_path / "written.toml")
+    assert sc.steps == (0.5, 0.25, 0.125) and sc.your_step == 0.01
+
+
+@pytest.mark.parametrize("step, expected, said", [
+    (2.0**-6, (2.0**-4, 2.0**-5, 2.0**-6, 2.0**-7), ""),  # a step of the ladder: nothing added
+    (0.01, (2.0**-4, 2.0**-5, 2.0**-6, 0.01, 2.0**-7), "and your step 0.01 s"),
+    (0.1, (0.2, 0.1, 2.0**-4, 2.0**-5, 2.0**-6, 2.0**-7), "with 0.2 s beyond it"),  # coarser: twice it added
+    (0.005, (2.0**-4, 2.0**-5, 2.0**-6, 2.0**-7, 0.005, 0.0025), "with 0.0025 s beyond it"),  # finer: half of it
+    (20.0, (2.0**-4, 2.0**-5, 2.0**-6, 2.0**-7), "longer than the duration"),
+])
+def test_with_your_step(step, expected, said):
+    from xcheck.defaults import with_your_step
+
+    ladder, words = with_your_step((2.0**-4, 2.0**-5, 2.0**-6, 2.0**-7), step, 10.0)
+    assert ladder == expected and said in words
+
+
+def test_an_order_is_fitted_on_the_ladder_not_on_the_added_step():
+    """Errors C dt^4 on 1/16 … 1/256 s, and at 0.01 s (plus 0.02 s) an error off that law by 20 %: the fit on the
+    ladder is 4 to 1e-12 at every pair; with the added steps its local orders would be 3.6 and 4.7."""
+    from xcheck.metrics import ladder_steps, observed_order
+
+    ladder = [2.0**-k for k in range(4, 9)]
+    steps = sorted(ladder + [0.02, 0.01], reverse=True)
+    assert ladder_steps(steps, 0.01) == ladder
+    assert ladder_steps(ladder, 2.0**-6) == ladder  # the user's step on the ladder: every step
+    assert ladder_steps(steps, None) == steps
+    assert ladder_steps([0.3, 0.2, 0.1, 0.01], 0.01) == [0.3, 0.2, 0.1, 0.01]  # no ladder to keep: every step
+    errors = {d: 1e-2 * d**4 * (1.2 if d in (0.02, 0.01) else 1.0) for d in steps}
+    kept = ladder_steps(steps, 0.01)
+    fit = observed_order(kept, [errors[d] for d in kept], floor=1e-16)
+    assert fit.order == pytest.approx(4.0, abs=1e-12)
+    assert max(abs(p - 4.0) for p in fit.local_orders) < 1e-12
+    every = observed_order(steps, [errors[d] for d in steps], floor=1e-16)  # with them: local orders 3.6 and 4.7
+    assert max(abs(p - 4.0) for p in every.local_orders) > 0.5
+
+
+def test_a_study_runs_every_method_at_the_models_step(models):
+    """Every method has a run at 0.01 s; lie-rkmk4's order is 4 (within the study's 0.3), fitted without it."""
+    from xcheck.scenario import resolve_scenario
+    from xcheck.study import run_study
+
+    sc = resolve_scenario(str(models / "box.xml"))
+    st = run_study(sc, methods=["lie-rkmk4", "mujoco-implicitfast"], quick=True, workers=1, timing=False)
+    for name, m in st.methods.items():
+        assert [r.setting for r in m.runs if r.setting == 0.01], name
+    lie = st.methods["lie-rkmk4"]
+    assert abs(lie.observed_order - 4) <= 0.3
+    assert "0.01" not in lie.order_note
+    at = next(r for r in st.methods["mujoco-implicitfast"].runs if r.setting == 0.01)
+    assert np.isfinite(at.attitude_error) and at.attitude_error > 1e-4  # a first-order method at 0.01 s
