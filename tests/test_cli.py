@@ -55,8 +55,15 @@ def test_quick_report_passes_and_writes_every_file(quick_report):
 
 
 def validate_convergence(doc):
-    """Schema xcheck.convergence/1 (issue 5): required keys and types."""
-    assert doc["schema"] == "xcheck.convergence/1"
+    """Schema xcheck.convergence/2 (issue 5; 2: the answer at the user's step, issue 59): required keys and types."""
+    assert doc["schema"] == "xcheck.convergence/2"
+    if "your_step" in doc:  # the model's own step: its largest error over the run per method that ran at it
+        a = doc["your_step"]
+        assert a["dt"] > 0 and a["duration"] == doc["duration"] and a["tolerance"] > 0 and isinstance(a["studied"], bool)
+        assert a["studied"] == (a["dt"] in doc["steps"])
+        for name, r in a["methods"].items():
+            run = next(x for x in doc["methods"][name]["runs"] if x["dt"] == a["dt"])
+            assert r["error"] == run["max_attitude_error"] and r["within"] == (r["error"] <= a["tolerance"])
     assert isinstance(doc["scenario"], str) and doc["reference"] in ("exact", "dop853", "fine")
     assert set(doc["versions"]) >= {"xcheck", "mujoco", "numpy", "scipy", "python"}
     assert isinstance(doc["passed"], bool)

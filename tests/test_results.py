@@ -1,5 +1,5 @@
 """Typed results (xcheck.results) and the verdicts the study computes once: a run's JSON keeps the keys of schema
-xcheck.convergence/1, a method's status and finest run follow from its runs, a check's name is kind:method."""
+xcheck.convergence/2, a method's status and finest run follow from its runs, a check's name is kind:method."""
 
 from xcheck.results import Check, MethodResult, Run, json_number
 from xcheck.study.checks import verdict

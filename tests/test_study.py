@@ -1,6 +1,6 @@
 """The study's judgement (xcheck.study.assemble) on made-up worker results with known answers: orders and
 checks, the agreement check for every engine RK4 (runners with ``agreement``), expected failures, a reference
-that could not be computed, and the JSON it makes (schema xcheck.convergence/1)."""
+that could not be computed, and the JSON it makes (schema xcheck.convergence/2)."""
 
 import dataclasses
 
@@ -102,7 +102,7 @@ def test_a_reference_that_fails_when_evaluated_fails_the_study(scenario, monkeyp
 
 def test_json_keeps_the_schema(scenario):
     data = assemble(scenario, STEPS, [result("lie-rkmk4", runs(4))]).data
-    assert data["schema"] == "xcheck.convergence/1" and data["scenario"] == "tumbler-intermediate-axis"
+    assert data["schema"] == "xcheck.convergence/2" and data["scenario"] == "tumbler-intermediate-axis"
     assert set(data) >= {"description", "model", "duration", "reference", "torque", "initial", "quick", "steps",
                          "order_floor", "versions", "methods", "checks", "passed"}
     assert set(data["methods"]["lie-rkmk4"]) >= {"engine", "expected_order", "observed_order", "order_note",

@@ -131,3 +131,47 @@ def test_a_study_runs_every_method_at_the_models_step(models):
     assert "0.01" not in lie.order_note
     at = next(r for r in st.methods["mujoco-implicitfast"].runs if r.setting == 0.01)
     assert np.isfinite(at.attitude_error) and at.attitude_error > 1e-4  # a first-order method at 0.01 s
+
+
+def test_the_first_line_answers_at_the_models_step(models):
+    """The answer is read from the runs at 0.01 s (the largest attitude error over the run, against [checks]
+    tolerance 1e-6 rad), the model's integrator first; it leads the terminal's lines and the JSON."""
+    from xcheck.commands.studies import study_lines
+    from xcheck.scenario import resolve_scenario
+    from xcheck.study import run_study
+    from xcheck.study.your_step import answer_line
+
+    sc = resolve_scenario(str(models / "box.xml"))
+    st = run_study(sc, methods=["lie-rkmk4", "mujoco-implicitfast", "scipy-rk45"], quick=True, workers=1,
+                   timing=False)
+    a = st.data["your_step"]
+    assert (a["dt"], a["duration"], a["tolerance"], a["integrator"], a["studied"]) == (0.01, sc.duration, 1e-6,
+                                                                                        "implicitfast", True)
+    for name in ("lie-rkmk4", "mujoco-implicitfast"):
+        run = next(r for r in st.methods[name].runs if r.dt == 0.01)
+        assert a["methods"][name] == {"error": run.max_attitude_error, "within": run.max_attitude_error <= 1e-6}
+    assert a["methods"]["lie-rkmk4"]["within"] and not a["methods"]["mujoco-implicitfast"]["within"]
+    assert a["not_run"] == {"scipy-rk45": "adaptive: it chooses its own steps (see its tolerances)"}
+    line = answer_line(a)
+    e = a["methods"]["mujoco-implicitfast"]["error"]
+    assert line.startswith(f"at your Δt = 0.01 s (the model's <option timestep>) over {sc.duration:g} s, largest "
+                           f"attitude error over the run: mujoco-implicitfast {e:.2g} rad (tolerance 1e-06: not "
+                           "within); 1 of 2 methods within, the best lie-rkmk4")
+    assert study_lines(st)[1] == f"  {line}"
+
+
+def test_a_scenario_whose_steps_leave_out_the_models_says_so(models, tmp_path):
+    from xcheck.scenario import load_scenario
+    from xcheck.study import run_study
+    from xcheck.study.your_step import answer_line
+
+    (tmp_path / "written.toml").write_text(
+        f'name = "written"\nmodel = "{(models / "box.xml").as_posix()}"\nduration = 2.0\n[initial]\n'
+        'quaternion = [1.0, 0.0, 0.0, 0.0]\nangular_velocity = [0.3, 2.0, 0.5]\n'
+        '[study]\nsteps = [0.0625, 0.03125, 0.015625]\n'
+        'quick_steps = [0.0625, 0.03125, 0.015625]\n')
+    st = run_study(load_scenario(tmp_path / "written.toml"), methods=["lie-rkmk4"], quick=True, workers=1,
+                   timing=False)
+    assert st.your_step["studied"] is False and st.your_step["methods"] == {}
+    assert "not studied — the scenario writes its steps (1/16, 1/32, 1/64 s) and yours is not among them" in \
+        answer_line(st.your_step)

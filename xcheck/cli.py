@@ -59,7 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--methods", help="comma-separated methods (default: the scenario's, or all)")
     p.add_argument("--steps", help="comma-separated steps in seconds (default: the scenario's)")
     p.add_argument("--quick", action="store_true", help="the scenario's quick steps")
-    p.add_argument("--json", metavar="PATH", help="write the results (schema xcheck.convergence/1)")
+    p.add_argument("--json", metavar="PATH", help="write the results (schema xcheck.convergence/2)")
     p.add_argument("--out", metavar="DIR", help="write the figures into DIR")
     p.add_argument("--workers", type=int, default=None,
                    help="processes for the study, this one included (default: this process, and one worker for "

@@ -357,6 +357,7 @@ DEFAULT_CHECKS = {
     "final_error": 1e-9,  # [rad] at the finest step, for methods of order >= 4
     "invariant_tolerance": 1e-9,  # relative energy / momentum drift at the finest step (torque free)
     "agreement": 1e-9,  # [rad] MuJoCo RK4 against our best method at the finest step
+    "tolerance": 1e-6,  # [rad] the largest attitude error over the run a user accepts at their own step (issue 59)
     "expected_to_fail": [],  # methods whose checks are expected to fail (e.g. Euler angles at gimbal lock)
 }
 

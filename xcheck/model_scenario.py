@@ -48,7 +48,8 @@ _CHECK_HELP = {"order_tolerance": "observed order at least expected minus this",
                "order_excess": "and at most expected plus this",
                "final_error": "[rad], a fourth-order method at its finest step",
                "invariant_tolerance": "relative energy and momentum drift",
-               "agreement": "[rad], an engine's RK4 against our best"}
+               "agreement": "[rad], an engine's RK4 against our best",
+               "tolerance": "[rad], the largest attitude error over the run you accept at your step (the first line)"}
 
 
 def _toml_list(values) -> str:

@@ -1,7 +1,7 @@
 """What a cross-check found, as typed records computed once: a :class:`Run` (one method at one step),
 :class:`MethodRuns` (a method's runs as a worker measured them), a :class:`MethodResult` (its runs, observed
 order, finest good run and verdict) and a :class:`Check` (kind,
-method, passed, value, limit, note). The JSON of schema ``xcheck.convergence/1`` is made from them at the edge
+method, passed, value, limit, note). The JSON of schema ``xcheck.convergence/2`` is made from them at the edge
 (``to_json``), with every key it has always had; ``verdict`` is new.
 
 Verdicts: ``pass`` every check of the method passed; ``fail`` one failed (or the study's reference could not

@@ -501,7 +501,7 @@ def _read_checks(ck: _Reader, methods, derive: tuple, files=()) -> tuple[dict, t
     if "steps" in derive:
         derive += tuple(k for k in ("final_error", "agreement", "invariant_tolerance") if k not in ck.table)
     checks = dict(DEFAULT_CHECKS)
-    for key in ("order_tolerance", "order_excess", "final_error", "invariant_tolerance", "agreement"):
+    for key in ("order_tolerance", "order_excess", "final_error", "invariant_tolerance", "agreement", "tolerance"):
         checks[key] = ck.positive(key, DEFAULT_CHECKS[key])
     checks["expected_to_fail"] = ck.get("expected_to_fail", "strings", [])
     for m in checks["expected_to_fail"]:

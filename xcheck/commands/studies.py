@@ -43,16 +43,27 @@ def study_lines(st) -> list[str]:
     from ..study import left_out_lines
     from ..study.checks import check_summary
 
+    from ..study.your_step import answer_line
+    from ..trajectory import step_label
+
     lines = [f"\n{st.name}: {st.outcome} (reference: {st.reference_used})"]
+    answer = st.your_step
+    if answer:  # the user's question first: at their step, over their run
+        lines.append(f"  {answer_line(answer)}")
     if st.reference_check:
         lines.append(f"  reference: {st.reference_check['text']}")
     width = max([22, *map(len, st.methods)])  # the engines' longest names (drake-semi-explicit-euler) fit
-    lines.append(f"  {'method':{width}s} {'expected':>8s} {'observed':>8s} {'finest error':>13s}  status")
+    yours = answer is not None and answer["studied"]
+    at = f"at {step_label(answer['dt'])} s" if yours else ""  # the largest error over the run at the user's step
+    lines.append(f"  {'method':{width}s} {'expected':>8s} {'observed':>8s} {'finest error':>13s}"
+                 + (f" {at:>13s}" if yours else "") + "  status")
     for name, m in st.methods.items():
         obs = f"{m.observed_order:.2f}" if m.observed_order is not None else "—"
         exp = m.expected_order if m.expected_order is not None else "adaptive"
         err_text = "—" if m.finest is None else format(m.finest.attitude_error, ".2e")
-        lines.append(f"  {name:{width}s} {exp!s:>8s} {obs:>8s} {err_text:>13s}  {m.status_text}")
+        mine = answer["methods"].get(name) if yours else None
+        mine_text = (f" {format(mine['error'], '.2e'):>13s}" if mine else f" {'—':>13s}") if yours else ""
+        lines.append(f"  {name:{width}s} {exp!s:>8s} {obs:>8s} {err_text:>13s}{mine_text}  {m.status_text}")
     lines += [f"  {line}" for line in left_out_lines(st)]
     if st.files:
         from .score import file_lines

@@ -194,7 +194,7 @@ def report_document(studies, results: dict, figures: dict, *, extra=(), summary:
                        f". Machine: {results['machine']['platform']}, {results['machine']['cpus']} CPUs.", small=True))
     blocks.append(Heading(2, "In words", anchor="in-words"))
     for st in studies:
-        blocks.append(Para([(f"{st.name}: ", "b"), (scenario_summary(st), None)]))
+        blocks.append(Para([(f"{st.name}: ", "b"), *_answer_runs(st), (scenario_summary(st), None)]))
     blocks.append(Contents([(st.name, st.name, BADGES[st.outcome][1]) for st in studies]
                            + [(h.text, h.anchor, "") for h in extra if isinstance(h, Heading) and h.anchor]
                            + [("Appendix: versions, machine, throughput", "appendix", "")]))
@@ -308,11 +308,21 @@ def _front_cell(st, name) -> Cell:
     return Cell(f"{text} · {fmt(finest.attitude_error if finest else None, '.1e')}", m.verdict)
 
 
+def _answer_runs(st) -> list:
+    """The answer at the user's step as the text runs that lead a scenario's words (none without a step of theirs)."""
+    from ..study.your_step import answer_line
+
+    line = answer_line(st.your_step)
+    return [("A" + line[1:] + ". ", "b")] if line else []
+
+
 def _scenario_blocks(st, figs) -> list:
     from ..study import left_out_lines
 
     sc = st.scenario
     blocks = [Heading(2, sc.name, anchor=sc.name, badge=BADGES[st.outcome])]
+    if st.your_step:  # the user's question first: at their step, over their run (issue 59)
+        blocks.append(Para(_answer_runs(st)))
     if sc.description:
         blocks.append(Para(sc.description))
     if sc.assumptions:  # a scenario made from an MJCF file alone: what xcheck assumed, in words
@@ -361,7 +371,10 @@ def _scenario_blocks(st, figs) -> list:
                      Cell(f"{max(rates):.3g}" if rates else "", num=True)])
     blocks.append(Para("Every method's attitude error [rad] at the end of the run, at each step Δt [s]; the "
                        "orders expected and observed; its best speed [steps/s].", small=True))
-    blocks.append(Table(["method", "expected", "observed", *(f"{step_label(d)} s" for d in st.steps), "steps/s"], rows))
+    yours = st.your_step["dt"] if st.your_step and st.your_step["studied"] else None
+    blocks.append(Table(["method", "expected", "observed",
+                         *(f"{step_label(d)} s" + (" (yours)" if d == yours else "") for d in st.steps), "steps/s"],
+                        rows))
     if adaptive:
         tols = sorted({r.rtol for m in adaptive.values() for r in m.runs}, reverse=True)
         out_step = step_label(next(iter(adaptive.values())).runs[0].dt)

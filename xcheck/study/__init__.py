@@ -1,5 +1,5 @@
 """Convergence studies: every method x every step of a scenario against its reference, in worker
-processes (deterministic: each run is independent), producing results of schema ``xcheck.convergence/1``
+processes (deterministic: each run is independent), producing results of schema ``xcheck.convergence/2``
 plus the sampled series the report plots.
 
 The package: this module plans the studies and assembles their results (:class:`StudyResult`);
@@ -31,12 +31,13 @@ from .checks import adaptive_note, planned_checks, qualify, study_checks, study_
 from .executor import map_tasks, prefer_here
 from .files import score_trajectories
 from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_methods
+from .your_step import your_step_answer
 
 __all__ = ["run_study", "run_studies", "assemble", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows",
            "planned_checks", "default_methods", "not_run", "comparison_partner", "method_steps",
            "left_out_lines"]
 
-SCHEMA = "xcheck.convergence/1"
+SCHEMA = "xcheck.convergence/2"  # 2: the answer at the user's step, ``your_step`` (issue 59)
 
 
 @dataclass
@@ -44,7 +45,7 @@ class StudyResult:
     """A study's findings, typed (:mod:`xcheck.results`): the scenario, its steps (coarse to fine), every
     method's result, the checks; ``series``: per method, the sampled finest good run (``t``, ``q``, ``omega``,
     ``attitude_error``, ``energy``, ``momentum``, ``euler``) and the reference on the same times, for plots and
-    CSV. :attr:`data` is the JSON (schema ``xcheck.convergence/1``)."""
+    CSV. :attr:`data` is the JSON (schema ``xcheck.convergence/2``)."""
 
     scenario: Scenario
     steps: list
@@ -70,6 +71,8 @@ class StudyResult:
     not_run: dict = field(default_factory=dict)
     #: an engine's finest steps left out by its step budget (:func:`method_steps`): name -> (steps, why)
     over_budget: dict = field(default_factory=dict)
+    #: the answer at the user's own step (:func:`~xcheck.study.your_step.your_step_answer`); None: no step of theirs
+    your_step: dict | None = None
 
     @property
     def outcome(self) -> str:
@@ -95,7 +98,8 @@ class StudyResult:
     @property
     def data(self) -> dict:
         sc = self.scenario
-        return {"schema": SCHEMA, "scenario": sc.name, "description": sc.description, "model": str(sc.model),
+        return {"schema": SCHEMA, "scenario": sc.name, **({"your_step": self.your_step} if self.your_step else {}),
+                "description": sc.description, "model": str(sc.model),
                 "duration": sc.duration, "reference": sc.reference, "torque": sc.torque,
                 "initial": {"quaternion": sc.q0.tolist(), "angular_velocity": sc.omega0.tolist(),
                             "euler_sequence": sc.sequence},
@@ -399,7 +403,7 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
                        quick=quick, series=series, comparisons=comparisons, reference_check=reference_check,
                        inconclusive=reasons, not_run={**{m: why for m, why in not_run(scenario).items()
                                                          if m not in methods and _offered(RUNNERS[m])}, **broken},
-                       over_budget=over_budget)
+                       over_budget=over_budget, your_step=your_step_answer(scenario, steps, methods, over_budget))
 
 
 def _budget_undecided(checks: list, over_budget: dict) -> list:

@@ -314,7 +314,7 @@ def _run_batched(method: str, cells: list[_Cell], steps: tuple) -> None:
 
 
 def _record(c: _Cell, methods: list[str], steps: tuple) -> dict:
-    """A cell's record: its parameters, every method's result (schema ``xcheck.convergence/1``'s method
+    """A cell's record: its parameters, every method's result (schema ``xcheck.convergence/2``'s method
     entries), the checks, whether it passed, and where its time went."""
     from ..results import MethodRuns
     from ..study import assemble
