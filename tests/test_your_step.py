@@ -175,3 +175,65 @@ def test_a_scenario_whose_steps_leave_out_the_models_says_so(models, tmp_path):
     assert st.your_step["studied"] is False and st.your_step["methods"] == {}
     assert "not studied — the scenario writes its steps (1/16, 1/32, 1/64 s) and yours is not among them" in \
         answer_line(st.your_step)
+
+
+@pytest.mark.parametrize("text, seconds", [("10", 10.0), ("10 s", 10.0), ("10s", 10.0), ("2 min", 120.0),
+                                           ("1 h", 3600.0), ("1.5h", 5400.0), ("1 d", 86400.0)])
+def test_duration_units(text, seconds):
+    from xcheck.commands.arguments import duration_arg
+
+    assert duration_arg(text) == seconds
+
+
+@pytest.mark.parametrize("command", [["converge", "{box}", "--quick"], ["report", "{box}", "--quick", "--out", "{out}"],
+                                     ["run", "{box}", "--method", "lie-rkmk4", "--dt", "0.01"],
+                                     ["init", "{box}", "--out", "{out}/x.toml"], ["horizon", "{box}"]])
+@pytest.mark.parametrize("bad", ["0", "-3", "abc", "10 days", "nan"])
+def test_every_command_refuses_a_bad_duration_alike(models, tmp_path, capsys, command, bad):
+    """One rule and one message for --duration in every command that takes it: exit 2, naming the argument, before
+    anything is written."""
+    from xcheck.cli import main
+
+    args = [a.format(box=models / "box.xml", out=tmp_path) for a in command]
+    assert main([*args, f"--duration={bad}"]) == 2
+    err = capsys.readouterr().err
+    assert f"--duration: expected a positive time, seconds, or with a unit (10, 10 s, 2 min, 1 h, 1 d), got {bad!r}" \
+        in err and "Traceback" not in err
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("command", [["converge", "{box}", "--quick"], ["run", "{box}", "--method", "lie-rkmk4",
+                                                                        "--dt", "0.01"]])
+def test_a_duration_past_the_step_budget_is_refused_naming_it(models, capsys, command):
+    from xcheck.cli import main
+
+    assert main([*(a.format(box=models / "box.xml") for a in command), "--duration", "1e12 s"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("xcheck: error: --duration 1e12 s: ") and "limit of" in err
+
+
+def test_duration_sets_the_run_and_keeps_the_models_step(models, tmp_path):
+    """A model alone over --duration 10 s: the study's duration is 10 s, the model's 0.01 s still studied and
+    bracketed; a bundled scenario's written steps longer than a short duration are left out; init writes it."""
+    from xcheck.cli import main
+    from xcheck.commands.arguments import user_scenario
+
+    sc = user_scenario(str(models / "box.xml"), "10 s")
+    assert sc.duration == 10.0 and _brackets(sc.steps, 0.01) and _brackets(sc.quick_steps, 0.01)
+    gyro = user_scenario("gyroscope-nonsingular", "0.3")
+    assert gyro.duration == 0.3 and max(gyro.steps) <= 0.3 and min(gyro.steps) == 2.0**-12
+    assert main(["init", str(models / "box.xml"), "--out", str(tmp_path / "b.toml"), "--duration", "1 min"]) == 0
+    assert "duration = 60.0   # [s], yours (--duration)" in (tmp_path / "b.toml").read_text()
+
+
+@pytest.mark.parametrize("command", ["converge", "report", "run", "horizon", "releases", "score", "init"])
+def test_every_commands_help_names_what_it_takes(command, capsys):
+    """Each command that takes a scenario says it takes a model too (MODEL.xml), and those with --duration its
+    units."""
+    from xcheck.cli import main
+
+    assert main([command, "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "MODEL.xml" in text
+    if command in ("converge", "report", "run", "horizon", "init"):
+        assert "--duration" in text and "(10, 10 s, 2 min, 1 h, 1 d)" in text

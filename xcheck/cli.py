@@ -20,6 +20,7 @@ import time
 import warnings
 
 from . import __version__
+from .commands.arguments import DURATION_HELP
 from .base import interrupts
 from .base.errors import UsageError, UserError  # noqa: F401 (UsageError: imported from here before issue 38)
 from .base.interrupts import (
@@ -46,6 +47,11 @@ WITH_HELP = ("opt-in engines' methods too, comma-separated: mjx (MJX's RK4, Eule
              "install 'xcheck[engines]')")
 
 
+#: ``--duration`` of the commands that take a scenario or a model (one rule: commands.arguments.duration_arg)
+DURATION_OPTION = (f"the run, in place of the scenario's (a model alone's: derived from its motion): {DURATION_HELP}; "
+                   "the model's own step stays among the steps")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="xcheck", description="MuJoCo-validated rigid-body attitude cross-checker")
     parser.add_argument("--version", action="version", version=f"xcheck {__version__}")
@@ -59,6 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--methods", help="comma-separated methods (default: the scenario's, or all)")
     p.add_argument("--steps", help="comma-separated steps in seconds (default: the scenario's)")
     p.add_argument("--quick", action="store_true", help="the scenario's quick steps")
+    p.add_argument("--duration", help=DURATION_OPTION)
     p.add_argument("--json", metavar="PATH", help="write the results (schema xcheck.convergence/2)")
     p.add_argument("--out", metavar="DIR", help="write the figures into DIR")
     p.add_argument("--workers", type=int, default=None,
@@ -68,8 +75,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("horizon", help="one scenario over a long duration: how each method's errors grow")
     p.add_argument("scenario", help="a bundled scenario name, a scenario .toml file, or an MJCF model alone "
                                     "(MODEL.xml, MODEL.xml#KEYFRAME)")
-    p.add_argument("--duration", help="how long: seconds, or with a unit (5400s, 90min, 1h, 1d); default the "
-                                      "scenario's [horizon], else 100 times its duration")
+    p.add_argument("--duration", help=f"how long: {DURATION_HELP}; default the scenario's [horizon], else 100 times "
+                                      "its duration")
     p.add_argument("--steps", help="comma-separated steps in seconds (default: the scenario's [horizon] steps, else "
                                    "its three coarsest quick steps)")
     p.add_argument("--methods", help="comma-separated methods (default: every fixed-step method installed, ours, "
@@ -81,7 +88,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("score", help="score a trajectory file of any simulator against a scenario's reference")
     p.add_argument("file", metavar="FILE", help="a CSV of one sample a row (docs/trajectory-files.md)")
-    p.add_argument("--scenario", required=True, help="a bundled scenario name or a scenario .toml file")
+    p.add_argument("--scenario", required=True, help="a bundled scenario name, a scenario .toml file, or an MJCF "
+                                                     "model alone (MODEL.xml, MODEL.xml#KEYFRAME)")
     p.add_argument("--declaration", metavar="TOML", help="how FILE states its conventions (default: the scenario's "
                                                          "[[trajectory]] for FILE, else FILE.toml, else xcheck's CSV)")
     p.add_argument("--json", metavar="PATH", help="write the score as JSON")
@@ -91,6 +99,7 @@ def build_parser() -> argparse.ArgumentParser:
                                     "(MODEL.xml, MODEL.xml#KEYFRAME)")
     p.add_argument("--method", required=True)
     p.add_argument("--dt", type=float, required=True, help="step [s] (an adaptive method's output step)")
+    p.add_argument("--duration", help=DURATION_OPTION)
     p.add_argument("--rtol", type=float, help="an adaptive method's relative tolerance (default: its own)")
     p.add_argument("--csv", metavar="PATH", help="write the trajectory as CSV")
     p.add_argument("--plot", metavar="PATH", help="write a PNG plot")
@@ -100,6 +109,7 @@ def build_parser() -> argparse.ArgumentParser:
                                                 "MODEL.xml#KEYFRAME; default: every bundled scenario)")
     p.add_argument("--out", default="reports", metavar="DIR", help="where reports go (default: ./reports)")
     p.add_argument("--quick", action="store_true", help="fewer steps, for a fast look")
+    p.add_argument("--duration", help=DURATION_OPTION)
     p.add_argument("--bench", action="store_true", help="also run the benchmark into the appendix")
     p.add_argument("--timings", action="store_true", help="print where the time went (phases, on stderr)")
     p.add_argument("--trajectories", action="store_true",
@@ -157,6 +167,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", metavar="FILE", help="the scenario file to write (default: ./xcheck_<model>.toml, "
                                                   "which pytest collects through xcheck's plugin)")
     p.add_argument("--force", action="store_true", help="replace --out if it exists")
+    p.add_argument("--duration", help=f"the run: {DURATION_HELP} (default: derived from the motion, three of its "
+                                      "own periods)")
 
     p = sub.add_parser("determine", help="static attitude determination: seed 002's tables, or a scenario's "
                                          "magnetometer + sun sensor study on its MuJoCo run")
@@ -176,7 +188,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("releases", help="every MuJoCo release from 3.2 to 4.0 on the bundled scenarios and the boxes "
                                         "(docs/mujoco-releases.md)")
-    p.add_argument("scenarios", nargs="*", help="bundled scenario names (default: every bundled one)")
+    p.add_argument("scenarios", nargs="*", help="bundled scenario names, scenario .toml files or MJCF models (MODEL.xml, "
+                                                "MODEL.xml#KEYFRAME), each run in every release's own environment "
+                                                "(default: every bundled one)")
     p.add_argument("--mujoco", metavar="VERSIONS", help="comma-separated releases (default: the newest patch of every "
                                                         "minor release from 3.2.7 to 4.0.0)")
     p.add_argument("--out", metavar="FILE.md", help="write the release table as Markdown (docs/mujoco-releases.md)")

@@ -74,16 +74,18 @@ def _euler_margins(inertia, q0, omega0, duration: float, torque=None, reference:
     return out
 
 
-def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | None = None) -> tuple[str, tuple]:
+def model_scenario_text(model, keyframe: str | None = None, *, model_ref: str | None = None,
+                        duration: float | None = None) -> tuple[str, tuple]:
     """:func:`model_scenario` without the body."""
-    return model_scenario(model, keyframe, model_ref=model_ref)[:2]
+    return model_scenario(model, keyframe, model_ref=model_ref, duration=duration)[:2]
 
 
-def model_scenario(model, keyframe: str | None = None, *, model_ref: str | None = None) -> tuple[str, tuple, object]:
+def model_scenario(model, keyframe: str | None = None, *, model_ref: str | None = None,
+                   duration: float | None = None) -> tuple[str, tuple, object]:
     """The scenario file that the defaults for an MJCF file stand for, every key present and commented (what
     ``xcheck init`` writes and what ``xcheck report MODEL.xml`` runs), and the assumptions it makes, in words
     (the report states them). ``model_ref``: the model as the file names it (relative to where it is written;
-    default: the path as given), and its body (:class:`~xcheck.models.MJCFBody`). :class:`ScenarioError` naming the
+    default: the path as given); ``duration`` [s] the user's (``--duration``; default: derived from the motion); and its body (:class:`~xcheck.models.MJCFBody`). :class:`ScenarioError` naming the
     file for a model xcheck cannot check (its refusal) or a keyframe it does not have."""
     from .models import ModelError, initial_state
     from .reference import ReferenceFailure
@@ -101,7 +103,7 @@ def model_scenario(model, keyframe: str | None = None, *, model_ref: str | None 
     own = body.own_torque(state.omega0, state.wheel_speeds)
     why_not = exact_why_not(body.inertia, own)
     reference = "exact" if why_not is None else "dop853"
-    derived = derive(body.inertia, state.q0, state.omega0, None, own, your_step=body.timestep,
+    derived = derive(body.inertia, state.q0, state.omega0, duration, own, your_step=body.timestep,
                      your_step_why=body.step_source)  # steps, duration and limits from the body, and the model's step
     duration = derived.duration
     margins = None
@@ -124,7 +126,8 @@ def model_scenario(model, keyframe: str | None = None, *, model_ref: str | None 
         reference_words = (f"reference: {exact_words}" if reference == "exact"
                            else f"reference: DOP853 at rtol 1e-13 ({why_not})")
     assumptions = [f"initial state: {state.source}", *state.notes, *body.notes,
-                   f"duration {derived.why['duration']}; {torque_words}", reference_words,
+                   f"duration {derived.why.get('duration', f'{derived.duration:g} s: yours (--duration)')}; "
+                   f"{torque_words}", reference_words,
                    f"steps {derived.why['steps']}", f"quick steps {derived.why['quick_steps']}",
                    *([f"the checks' limits {derived.why['final_error']}"]
                      if derived.final_error != DEFAULT_CHECKS["final_error"] else [])]
@@ -157,7 +160,8 @@ def model_scenario(model, keyframe: str | None = None, *, model_ref: str | None 
         f"name = {toml_string(name)}",
         f"description = {toml_string(f'{model.name}, ' + state.source.split(':')[0] + (', torque free' if own is None else ', with wheels' if body.wheels else ', a top under gravity'))}",
         f"model = {toml_string(ref)}   # the MJCF file (relative to this file)",
-        f"duration = {duration!r}   # [s], derived: {derived.why['duration']}",
+        f"duration = {duration!r}   # [s], "
+        + (f"derived: {derived.why['duration']}" if "duration" in derived.why else "yours (--duration)"),
         "",
         "[initial]",
         f"# {state.source}",

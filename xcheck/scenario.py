@@ -254,10 +254,11 @@ _TOP_KEYS = ("name", "description", "model", "duration", "initial", "torque", "s
              "earth", "trajectory", "horizon")
 
 
-def load_scenario(path, *, check_model: bool = True) -> Scenario:
+def load_scenario(path, *, check_model: bool = True, duration: float | None = None) -> Scenario:
     """Read and validate a scenario TOML file (relative paths are relative to the file). ``check_model``: also
     load the model and build the torque (:func:`check_scenario_model`, which imports MuJoCo); the pytest plugin
-    collects without it, and checks as the study starts."""
+    collects without it, and checks as the study starts. ``duration`` [s]: the user's (``--duration``) in place of
+    the file's, its steps longer than it left out (:func:`_with_duration`)."""
     path = Path(path)
     if is_model_arg(path):
         raise ScenarioError(f"{path}: an MJCF file, not a scenario file: pass it where a scenario goes (xcheck "
@@ -277,15 +278,30 @@ def load_scenario(path, *, check_model: bool = True) -> Scenario:
     except UnicodeDecodeError as exc:
         raise ScenarioError(f"{path}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); a "
                             "scenario is a TOML file, which is UTF-8") from None
-    return _parse_scenario(text, path, check_model=check_model)
+    return _parse_scenario(text, path, check_model=check_model, duration=duration)
 
 
-def _parse_scenario(text: str, path: Path, *, check_model: bool = True) -> Scenario:
-    """A scenario from its TOML ``text``, as if read from ``path`` (relative paths are relative to its folder)."""
+def _with_duration(data: dict, duration: float) -> None:
+    """The TOML ``data`` with the user's ``duration`` [s] in place of the file's (issue 59: ``--duration``), its
+    written steps and quick steps longer than it left out (none left: the file's steps are refused, naming them)."""
+    data["duration"] = float(duration)
+    study = data.get("study")
+    if isinstance(study, dict):
+        for key in ("steps", "quick_steps"):
+            values = study.get(key)
+            if isinstance(values, list) and all(isinstance(v, (int, float)) for v in values):
+                study[key] = [v for v in values if v <= duration] or values
+
+
+def _parse_scenario(text: str, path: Path, *, check_model: bool = True, duration: float | None = None) -> Scenario:
+    """A scenario from its TOML ``text``, as if read from ``path`` (relative paths are relative to its folder);
+    ``duration``: the user's, in place of the file's."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    if duration is not None:
+        _with_duration(data, duration)
     top = _Reader(path, data, "")
     for key in data:
         if key not in _TOP_KEYS:
@@ -574,21 +590,22 @@ def bundled_scenarios() -> dict[str, Path]:
     return {p.stem: p for p in sorted(SCENARIO_DIR.glob("*.toml"))}
 
 
-def resolve_scenario(name_or_path) -> Scenario:
+def resolve_scenario(name_or_path, duration: float | None = None) -> Scenario:
     """A bundled scenario by name, a scenario file by path, or an MJCF file alone (``MODEL.xml``, or
     ``MODEL.xml#KEYFRAME``: :func:`scenario_from_model`); a URDF or another model format is refused, naming it
-    (:func:`foreign_model`)."""
+    (:func:`foreign_model`). ``duration`` [s]: the user's (``--duration``) in place of the scenario's, or of the one
+    derived for a model alone."""
     bundled = bundled_scenarios()
     if str(name_or_path) in bundled:
-        return load_scenario(bundled[str(name_or_path)])
+        return load_scenario(bundled[str(name_or_path)], duration=duration)
     foreign = foreign_model(name_or_path)
     if foreign:
         raise ScenarioError(foreign)
     if is_model_arg(name_or_path):
-        return scenario_from_model(name_or_path)
+        return scenario_from_model(name_or_path, duration)
     path = Path(name_or_path)
     if path.suffix == ".toml" or path.exists():
-        return load_scenario(path)
+        return load_scenario(path, duration=duration)
     raise ScenarioError(f"{name_or_path}: not a bundled scenario ({', '.join(bundled)}), a .toml scenario file nor "
                         "an MJCF .xml file")
 
@@ -612,7 +629,7 @@ def is_model_arg(text) -> bool:
     return split_model_arg(str(text))[0].suffix.lower() == ".xml"
 
 
-def scenario_from_model(text) -> Scenario:
+def scenario_from_model(text, duration: float | None = None) -> Scenario:
     """The scenario of an MJCF file alone, ``MODEL.xml`` or ``MODEL.xml#KEYFRAME`` (see
     :func:`xcheck.model_scenario.model_scenario_text`): read as if from the file ``xcheck init`` writes, its assumptions kept for the
     report."""
@@ -620,7 +637,7 @@ def scenario_from_model(text) -> Scenario:
     problem = input_problem(path, "MJCF file")
     if problem:
         raise ScenarioError(problem)
-    toml_text, assumptions, body = model_scenario(path, keyframe, model_ref=str(path.resolve()))
+    toml_text, assumptions, body = model_scenario(path, keyframe, model_ref=str(path.resolve()), duration=duration)
     scenario = _parse_scenario(toml_text, path, check_model=False)  # loaded just now, and torque free
     scenario.assumptions = assumptions
     scenario.take_model_step(body)

@@ -143,3 +143,51 @@ def releases_arg(text: str, ctx) -> list[str]:
     if note:
         ctx.note(note)
     return versions
+
+
+#: ``--duration``'s units, and how many seconds each is (the longest names first: ``min`` before ``s``).
+DURATION_UNITS = {"d": 86400.0, "h": 3600.0, "min": 60.0, "s": 1.0}
+DURATION_HELP = "seconds, or with a unit (10, 10 s, 2 min, 1 h, 1 d)"
+
+
+def duration_arg(text: str) -> float:
+    """``--duration`` (every command's, one rule): seconds, or a number and a unit (``10``, ``10 s``, ``2 min``,
+    ``1 h``, ``1 d``) -> seconds; a UsageError naming ``--duration`` for zero, a negative, or not a number."""
+    import math
+
+    number, factor = str(text).strip(), 1.0
+    for unit, scale in DURATION_UNITS.items():
+        if number.endswith(unit):
+            number, factor = number[: -len(unit)], scale
+            break
+    try:
+        value = float(number) * factor
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise UsageError(f"--duration: expected a positive time, {DURATION_HELP}, got {text!r}")
+    return value
+
+
+def user_scenario(name: str, duration: str | None = None):
+    """The scenario a command runs (:func:`~xcheck.scenario.resolve_scenario`) over the user's ``--duration``; a
+    duration the scenario's steps do not fit (past the memory a run may take, shorter than every step the file
+    writes) is a UsageError naming ``--duration``, each run at most the step budget
+    (:func:`~xcheck.trajectory.check_step`)."""
+    from ..scenario import ScenarioError, resolve_scenario
+    from ..trajectory import check_step
+
+    if duration is None:
+        return resolve_scenario(name)
+    seconds = duration_arg(duration)
+    try:
+        sc = resolve_scenario(name, duration=seconds)
+    except ScenarioError as exc:
+        resolve_scenario(name)  # the scenario's own error, where it has one
+        raise UsageError(f"--duration {duration}: {exc}") from None
+    for dt in (*sc.steps, *sc.quick_steps):
+        try:
+            check_step(dt, seconds)
+        except ValueError as exc:
+            raise UsageError(f"--duration {duration}: {exc}") from None
+    return sc

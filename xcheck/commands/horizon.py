@@ -4,34 +4,20 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 
 from ..base.errors import UsageError
 from . import Context, Outcome
-from .arguments import methods_arg, steps_arg
+from .arguments import duration_arg, methods_arg, steps_arg
+
 
 def _duration(text: str | None, scenario) -> float:
-    """``--duration``: seconds, or with a unit (``5400s``, ``90min``, ``1h``, ``1d``); default the scenario's
+    """``--duration`` (:func:`~xcheck.commands.arguments.duration_arg`, every command's rule); default the scenario's
     ``[horizon]`` duration, else 100 times its own."""
     if text is None:
         from ..study.horizon import default_duration
 
         return default_duration(scenario)
-    units = {"d": 86400.0, "h": 3600.0, "min": 60.0, "s": 1.0}
-    for unit, scale in units.items():
-        if text.endswith(unit):
-            number, factor = text[: -len(unit)], scale
-            break
-    else:
-        number, factor = text, 1.0
-    try:
-        value = float(number) * factor
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and value > 0):
-        raise UsageError(f"--duration: expected a positive time in s, or with a unit (5400s, 90min, 1h, 1d), got "
-                         f"{text!r}")
-    return value
+    return duration_arg(text)
 
 
 def _steps(text: str | None, scenario, duration: float) -> list[float]:

@@ -6,8 +6,9 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..base.errors import UsageError
+from ..base.errors import UsageError, UserError
 from . import Context, Outcome
+from .arguments import duration_arg
 
 
 @dataclass
@@ -16,7 +17,8 @@ class InitOutcome(Outcome):
     assumptions: list
 
 
-def init(*, model: str, keyframe: str | None, out: str | None, force: bool, ctx: Context) -> InitOutcome:
+def init(*, model: str, keyframe: str | None, out: str | None, force: bool, ctx: Context,
+         duration: str | None = None) -> InitOutcome:
     """Write the scenario of ``model`` (``MODEL.xml`` or ``MODEL.xml#KEYFRAME``) to ``out`` (default
     ``./xcheck_<model>.toml``, which pytest collects through xcheck's plugin)."""
     from ..base.files import check_output_file, write_text_atomic
@@ -39,7 +41,14 @@ def init(*, model: str, keyframe: str | None, out: str | None, force: bool, ctx:
     if target.exists() and not force:
         raise UsageError(f"--out: {target} exists; give another --out, or --force to replace it")
     relative = os.path.relpath(path.resolve(), target.resolve().parent)
-    text, assumptions = model_scenario_text(path, key, model_ref=Path(relative).as_posix())
+    seconds = duration_arg(duration) if duration is not None else None
+    try:
+        text, assumptions = model_scenario_text(path, key, model_ref=Path(relative).as_posix(), duration=seconds)
+    except UserError as exc:
+        if seconds is None:
+            raise
+        model_scenario_text(path, key)  # the model's own error, where it has one
+        raise UsageError(f"--duration {duration}: {exc}") from None
     write_text_atomic(target, text)
     ctx.written.append(target)
     ctx.say(f"wrote {target}: the scenario xcheck assumes for {path.name}; edit it, then: xcheck report {target}")

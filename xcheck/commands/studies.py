@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ..base.errors import UsageError
 from . import Context, Outcome
-from .arguments import clock_note, methods_arg, steps_arg
+from .arguments import clock_note, methods_arg, steps_arg, user_scenario
 
 #: The formats ``run --plot`` writes, by file ending.
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
@@ -87,7 +87,7 @@ class StudyOutcome(Outcome):
 
 
 def converge(*, scenario: str, methods: str | None, steps: str | None, quick: bool, json: str | None,
-             out: str | None, workers: int | None, ctx: Context) -> StudyOutcome:
+             out: str | None, workers: int | None, ctx: Context, duration: str | None = None) -> StudyOutcome:
     """One convergence study of ``scenario``. A study is quicker in this process than shared with workers, which
     each pay 1-1.5 s of imports and compiled-code loading before their first run, except for the methods of an
     engine whose import is costly (Basilisk's: 0.5 s more, and the longest runs). With one installed (and not left
@@ -101,16 +101,15 @@ def converge(*, scenario: str, methods: str | None, steps: str | None, quick: bo
                  for e in ENGINES.values())
     size = workers - 1 if workers and workers > 1 else (1 if workers is None and costly else 0)
     with worker_pool(size, warm=worker_modules(figures=False)) if size else nullcontext() as pool:
-        return _converge(scenario, methods, steps, quick, json, out, pool, ctx)
+        return _converge(scenario, methods, steps, quick, json, out, pool, ctx, duration)
 
 
-def _converge(name, methods, steps, quick, json, out, pool, ctx) -> StudyOutcome:
+def _converge(name, methods, steps, quick, json, out, pool, ctx, duration=None) -> StudyOutcome:
     from ..base.files import check_output_dir, check_output_file, write_json_atomic
     from ..runners import RUNNERS
-    from ..scenario import resolve_scenario
     from ..study import default_methods, run_study
 
-    scenario = resolve_scenario(name)
+    scenario = user_scenario(name, duration)
     methods = methods_arg(methods) if methods is not None else None
     steps = steps_arg(steps, scenario) if steps is not None else None
     for m in (methods or default_methods(scenario)) if steps else ():  # an unknown name: run_study's refusal
@@ -143,16 +142,15 @@ class RunOutcome(Outcome):
 
 
 def run_one(*, scenario: str, method: str, dt: float, rtol: float | None, csv: str | None, plot: str | None,
-            ctx: Context) -> RunOutcome:
+            ctx: Context, duration: str | None = None) -> RunOutcome:
     """One trajectory of ``method`` at the step ``dt`` against the scenario's reference; FAILED when the run did
     not end (non-finite, singular) or has no reference."""
     from ..base.files import check_output_file, write_trajectory_csv
     from ..runners import RUNNERS, unknown_method
-    from ..scenario import resolve_scenario
     from ..study.single import run_once
     from ..trajectory import check_step
 
-    sc = resolve_scenario(scenario)
+    sc = user_scenario(scenario, duration)
     if method not in RUNNERS:
         raise UsageError(f"--method: {unknown_method(method)}")
     runner = RUNNERS[method]

@@ -30,12 +30,13 @@ def worker_modules(figures: bool = True) -> tuple:
         ("xcheck.report.plots",) if figures else ())
 
 
-def resolve_scenarios(names) -> list:
+def resolve_scenarios(names, resolve=None) -> list:
     """The scenarios named (every bundled one when none is), every input error before any work, and distinct
-    names (they name a report's files): :class:`~xcheck.scenario.ScenarioError` otherwise."""
+    names (they name a report's files): :class:`~xcheck.scenario.ScenarioError` otherwise. ``resolve(name)``: how a
+    name becomes a scenario (default :func:`~xcheck.scenario.resolve_scenario`)."""
     from ..scenario import ScenarioError, bundled_scenarios, resolve_scenario
 
-    scenarios = [resolve_scenario(n) for n in names or list(bundled_scenarios())]
+    scenarios = [(resolve or resolve_scenario)(n) for n in names or list(bundled_scenarios())]
     first = {}
     for sc in scenarios:
         if sc.name in first:
