@@ -177,3 +177,31 @@ def test_bullet_turns_a_body_right_by_a_quarter_pi_a_step_at_most(path):
             assert (f"turns {10 * dt:g} rad in a step of {dt:g} s, beyond Bullet's limit of pi/4 a step "
                     f"(ANGULAR_MOTION_THRESHOLD: btTransformUtil.h, btMultiBody.cpp), where it turns it by "
                     f"{expected:.3g} rad instead") in tr.message
+
+
+def test_a_blow_up_is_called_a_blow_up_first():
+    """Issue 60: Bullet's multibody on J = diag(1, 2, 3), w0 = (0.1, 10, 0.1) rad/s at 1/60 s lets the rate run to
+    1.7e30 rad/s; a torque-free body's rate never exceeds |J w0| / J_min = 20.0025 rad/s (|L| conserved). The run
+    says it blew up, with that bound, not that Bullet clamped its turn; at 1/240 s it does not blow up."""
+    from xcheck.engines.bullet import simulate
+
+    J, w0 = np.diag([1.0, 2.0, 3.0]), [0.1, 10.0, 0.1]
+    bound = float(np.sqrt(0.1**2 + 20.0**2 + 0.3**2))  # |J w0| / 1
+    coarse = simulate(J, path="multibody", q0=[1, 0, 0, 0], omega0=w0, dt=1 / 60, duration=20.0)
+    assert coarse.status == "failed"
+    assert coarse.message.startswith("pybullet-multibody: blew up: its body rate grew to ")
+    assert f"(|J w0| / J_min = {bound:.3g} rad/s)" in coarse.message and "Bullet's limit" not in coarse.message
+    fine = simulate(J, path="multibody", q0=[1, 0, 0, 0], omega0=w0, dt=1 / 240, duration=20.0)
+    assert fine.ok and np.max(np.linalg.norm(fine.omega, axis=1)) <= bound * (1 + 1e-6)
+
+
+def test_the_blow_up_rule_on_a_known_series():
+    """The rule alone: rates within 10 times the bound pass, the first past it is named with its time."""
+    from xcheck.trajectory import blow_up
+
+    t = np.arange(4.0)
+    J = np.diag([1.0, 2.0, 3.0])
+    w = np.array([[0, 1, 0], [0, 15, 0], [0, 20.0, 0], [0, 25, 0]])  # bound |J w0| / 1 = 2 rad/s: 20 is the limit
+    assert blow_up(t[:3], w[:3], J, [0, 1, 0], method="m") is None
+    assert blow_up(t, w, J, [0, 1, 0], method="m").startswith("m: blew up: its body rate grew to 25 rad/s by t = 3 s")
+    assert blow_up(t, np.zeros((4, 3)), J, [0, 0, 0], method="m") is None  # at rest: no bound to grow past

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "equal_steps", "finite_rows", "until_non_finite", "fixed_step_start", "step_label", "time_grid", "check_step",
+__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "equal_steps", "finite_rows", "until_non_finite", "blow_up", "BLOW_UP_FACTOR", "fixed_step_start", "step_label", "time_grid", "check_step",
            "check_initial_state", "tolerances_at", "available_memory"]
 
 #: Relative tolerance for treating ``duration / dt`` as an integer number of steps.
@@ -135,6 +135,27 @@ def until_non_finite(t, q, omega, *, method: str, dt: float, extras=None) -> "Tr
     if k < len(t):
         traj.status, traj.message = "failed", f"{method}: the state became non-finite at t = {t[k]:.6g} s"
     return traj
+
+
+#: A torque-free run whose body rate grows past this many times the largest its body can reach has blown up.
+BLOW_UP_FACTOR = 10.0
+
+
+def blow_up(t, omega, inertia, omega0, *, method: str) -> str | None:
+    """Why a torque-free free body's run has **blown up** (issue 60: a blow-up is called one first, before any
+    engine's own explanation), or None. Its |L| is conserved, so its rate never exceeds ``|J w0| / J_min``
+    (|w| <= |J w| / J_min); a rate past :data:`BLOW_UP_FACTOR` times that bound is growth no truncation error of a
+    stable run explains. ``omega`` (n, 3) [rad/s] in either frame (only its norm is read); ``inertia`` (3, 3)."""
+    J = np.asarray(inertia, dtype=float)
+    bound = float(np.linalg.norm(J @ np.asarray(omega0, dtype=float)) / np.linalg.eigvalsh(J)[0])
+    rates = np.linalg.norm(np.asarray(omega, dtype=float).reshape(-1, 3), axis=1)
+    over = np.flatnonzero(~(rates <= BLOW_UP_FACTOR * bound)) if bound > 0 else np.empty(0, int)
+    if not len(over):
+        return None
+    k = int(over[0])
+    return (f"{method}: blew up: its body rate grew to {rates[k]:.3g} rad/s by t = {float(t[k]):.6g} s, more than "
+            f"{BLOW_UP_FACTOR:g} times the largest a torque-free body of this inertia can reach (|J w0| / J_min = "
+            f"{bound:.3g} rad/s)")
 
 
 def equal_steps(dt, duration, why: str) -> int:

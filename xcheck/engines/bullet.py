@@ -41,7 +41,7 @@ import numpy as np
 
 from .. import rotations as rot
 from ..body import principal_axes
-from ..trajectory import Trajectory, check_initial_state, finite_rows, step_plan, until_non_finite
+from ..trajectory import Trajectory, blow_up, check_initial_state, finite_rows, step_plan, until_non_finite
 from .held_input import engine_torque
 from .mechanism import pulse_torque
 
@@ -314,6 +314,10 @@ def simulate(inertia, *, path: str, q0, omega0, dt: float, duration: float, torq
     method = f"pybullet-{path}"
     traj = until_non_finite(t, q, omega, method=method, dt=dt, extras={
         "evaluations": n, "torque_input": "held over each step" if torque is not None or motors else None})
+    burst = blow_up(traj.t, ang[:k], inertia, omega0, method=method) if torque is None and mechanism is None \
+        and traj.ok else None
+    if burst:  # a blow-up first (issue 60): past it, the turn a step below is the blow-up's, not Bullet's clamp
+        traj.status, traj.message = "failed", burst
     turn = float(np.max(np.linalg.norm(ang[1:], axis=1) * np.diff(t))) if n and traj.ok else 0.0
     if turn > MAX_TURN:  # Bullet turned the body by less than its rate asks: not the step's answer
         traj.status, traj.message = "failed", (
