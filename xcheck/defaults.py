@@ -143,8 +143,10 @@ def with_your_step(ladder, step: float, duration: float, why: str = "") -> tuple
     named = f"your step {_label(step)} s" + (f" ({why})" if why else "")
     if step > duration:
         return ladder, f"; {named} is longer than the duration ({duration:g} s): not studied"
-    if any(abs(s - step) <= 1e-9 * step for s in ladder):
-        return tuple(step if abs(s - step) <= 1e-9 * step else s for s in ladder), ""  # the answer line names it
+    from .trajectory import same_step
+
+    if any(same_step(s, step) for s in ladder):
+        return tuple(step if same_step(s, step) else s for s in ladder), ""  # the answer line names it
     added = [step]
     if step > ladder[0] and 2 * step <= duration / 2:
         added.append(2 * step)

@@ -9,7 +9,7 @@ import numpy as np
 from . import rotations as rot
 from ._jit import compiled_code_loaded, njit
 from .body import validate_inertia
-from .trajectory import Trajectory
+from .trajectory import Trajectory, same_step
 
 __all__ = [
     "conserved_drift",
@@ -300,7 +300,7 @@ def ladder_steps(dts, your_step: float | None) -> list:
     was without them: a pair of steps 1.28 apart turns the round-off's wiggles into wild local orders. (Where the
     ladder alone shows no order, a study fits every step: :func:`xcheck.study.assemble`.)"""
     dts = [float(d) for d in dts]
-    if your_step is None or not any(abs(d - your_step) <= 1e-9 * your_step for d in dts):
+    if your_step is None or not any(same_step(d, your_step) for d in dts):
         return dts
 
     def key(d):  # steps at powers of two of each other share it

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "equal_steps", "finite_rows", "until_non_finite", "blow_up", "BLOW_UP_FACTOR", "fixed_step_start", "step_label", "time_grid", "check_step",
+__all__ = ["Trajectory", "continuous_quaternions", "step_plan", "equal_steps", "finite_rows", "until_non_finite", "same_step", "blow_up", "BLOW_UP_FACTOR", "fixed_step_start", "step_label", "time_grid", "check_step",
            "check_initial_state", "tolerances_at", "available_memory"]
 
 #: Relative tolerance for treating ``duration / dt`` as an integer number of steps.
@@ -135,6 +135,11 @@ def until_non_finite(t, q, omega, *, method: str, dt: float, extras=None) -> "Tr
     if k < len(t):
         traj.status, traj.message = "failed", f"{method}: the state became non-finite at t = {t[k]:.6g} s"
     return traj
+
+
+def same_step(a: float, b: float) -> bool:
+    """Whether two steps [s] are the same step (to 1e-9 relative: a step written in a file, derived, or run)."""
+    return abs(float(a) - float(b)) <= 1e-9 * float(b)
 
 
 #: A torque-free run whose body rate grows past this many times the largest its body can reach has blown up.

@@ -62,7 +62,7 @@ def study_lines(st) -> list[str]:
         exp = m.expected_order if m.expected_order is not None else "adaptive"
         err_text = "—" if m.finest is None else format(m.finest.attitude_error, ".2e")
         mine = answer["methods"].get(name) if yours else None
-        mine_text = (f" {format(mine['error'], '.2e'):>13s}" if mine else f" {'—':>13s}") if yours else ""
+        mine_text = "" if not yours else f" {format(mine['error'], '.2e') if mine else '—':>13s}"
         lines.append(f"  {name:{width}s} {exp!s:>8s} {obs:>8s} {err_text:>13s}{mine_text}  {m.status_text}")
     lines += [f"  {line}" for line in left_out_lines(st)]
     if st.files:

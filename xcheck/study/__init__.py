@@ -364,7 +364,8 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
         runner = RUNNERS[name]
         runs = res.runs
         x = [r.setting for r in runs]
-        on_ladder = runs if runner.adaptive else [r for r in runs if r.setting in ladder_steps(x, scenario.your_step)]
+        ladder = set(x if runner.adaptive else ladder_steps(x, scenario.your_step))
+        on_ladder = [r for r in runs if r.setting in ladder]
         fit = observed_order([r.setting for r in on_ladder], [r.attitude_error for r in on_ladder], floor=floor)
         if fit.order is None and len(on_ladder) < len(runs):  # none on the ladder alone: the user's steps too
             fit = observed_order(x, [r.attitude_error for r in runs], floor=floor)

@@ -12,13 +12,9 @@ from __future__ import annotations
 
 from ..defaults import DEFAULT_CHECKS
 from ..runners import RUNNERS
-from ..trajectory import step_label
+from ..trajectory import same_step, step_label
 
 __all__ = ["your_step_answer", "answer_line"]
-
-
-def _same(a: float, b: float) -> bool:
-    return abs(a - b) <= 1e-9 * b
 
 
 def your_step_answer(scenario, steps, methods: dict, over_budget: dict) -> dict | None:
@@ -30,7 +26,7 @@ def your_step_answer(scenario, steps, methods: dict, over_budget: dict) -> dict 
         return None
     tolerance = float(scenario.checks.get("tolerance", DEFAULT_CHECKS["tolerance"]))
     out = {"dt": dt, "source": scenario.your_step_why, "duration": scenario.duration, "tolerance": tolerance,
-           "integrator": scenario.your_integrator, "studied": any(_same(float(s), dt) for s in steps),
+           "integrator": scenario.your_integrator, "studied": any(same_step(float(s), dt) for s in steps),
            "methods": {}, "not_run": {}}
     if not out["studied"]:
         out["why"] = (f"the scenario writes its steps ({', '.join(step_label(s) for s in steps)} s) and yours is not "
@@ -40,10 +36,10 @@ def your_step_answer(scenario, steps, methods: dict, over_budget: dict) -> dict 
         if RUNNERS[name].adaptive:
             out["not_run"][name] = "adaptive: it chooses its own steps (see its tolerances)"
             continue
-        run = next((r for r in m.runs if _same(r.dt, dt)), None)
+        run = next((r for r in m.runs if same_step(r.dt, dt)), None)
         if run is None:
             left, why = over_budget.get(name, ((), ""))
-            out["not_run"][name] = why.split(";")[0] if any(_same(s, dt) for s in left) else "not run at this step"
+            out["not_run"][name] = why.split(";")[0] if any(same_step(s, dt) for s in left) else "not run at this step"
         elif not run.ok or run.max_attitude_error is None:
             out["not_run"][name] = run.message or run.status
         else:
