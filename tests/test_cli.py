@@ -55,8 +55,8 @@ def test_quick_report_passes_and_writes_every_file(quick_report):
 
 
 def validate_convergence(doc):
-    """Schema xcheck.convergence/2 (issue 5; 2: the answer at the user's step, issue 59): required keys and types."""
-    assert doc["schema"] == "xcheck.convergence/2"
+    """Schema xcheck.convergence/3 (issue 5; 2: the answer at the user's step, issue 59): required keys and types."""
+    assert doc["schema"] == "xcheck.convergence/3"
     if "your_step" in doc:  # the model's own step: its largest error over the run per method that ran at it
         a = doc["your_step"]
         assert a["dt"] > 0 and a["duration"] == doc["duration"] and a["tolerance"] > 0 and isinstance(a["studied"], bool)
@@ -72,8 +72,8 @@ def validate_convergence(doc):
         assert m["observed_order"] is None or isinstance(m["observed_order"], float)
         assert m["status"] in ("ok", "singular", "failed")
         for r in m["runs"]:
-            for key in ("dt", "status", "attitude_error", "omega_error", "energy_drift", "momentum_drift",
-                        "norm_drift", "wall_time", "steps_per_second"):
+            for key in ("dt", "status", "attitude_error", "omega_error", "energy_change", "momentum_change",
+                        "momentum_turn", "norm_drift", "wall_time", "steps_per_second"):
                 assert key in r, (name, key)
             if r["status"] == "ok":
                 assert r["attitude_error"] >= 0 and r["omega_error"] >= 0

@@ -76,7 +76,7 @@ def test_the_study_runs_an_engine_within_its_budget_and_says_so(capsys):
 
 
 def _method(name, order, dts_errors, norm=None, energy=None):
-    runs = [Run(dt=dt, attitude_error=e, max_attitude_error=e, wall_time=0.0, norm_drift=norm, energy_drift=energy)
+    runs = [Run(dt=dt, attitude_error=e, max_attitude_error=e, wall_time=0.0, norm_drift=norm, energy_change=energy)
             for dt, e in dts_errors]
     return MethodResult(name=name, engine="x", expected_order=order, runs=runs)
 
@@ -103,7 +103,7 @@ def test_drakes_findings_explain_only_their_own_signature():
     assert findings.drake_additive_quaternion(Check("order", False, "e", 0.5, 1), m, sc) is None
     assert "norm is 0.35 off unit" in late(Check("order", False, "e", 0.53, 1), m, sc)
     tumbling = _method("e", 1, [(1 / 512, 0.25), (1 / 1024, 0.13)], norm=0.007, energy=0.0076)  # the boxes' box
-    assert "energy 0.0076 off" in late(Check("order", False, "e", None, 1), tumbling, sc)
+    assert "energy +0.0076 off (gained)" in late(Check("order", False, "e", None, 1), tumbling, sc)
     calm = _method("e", 1, [(1 / 512, 0.04), (1 / 1024, 0.03)], norm=0.005, energy=0.001)
     assert late(Check("order", False, "e", 0.53, 1), calm, sc) is None
     growing = _method("e", 1, [(1 / 512, 0.03), (1 / 1024, 0.04)], norm=0.35, energy=0.1)  # not converging: a defect

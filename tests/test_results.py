@@ -1,11 +1,11 @@
 """Typed results (xcheck.results) and the verdicts the study computes once: a run's JSON keeps the keys of schema
-xcheck.convergence/2, a method's status and finest run follow from its runs, a check's name is kind:method."""
+xcheck.convergence/3, a method's status and finest run follow from its runs, a check's name is kind:method."""
 
 from xcheck.results import Check, MethodResult, Run, json_number
 from xcheck.study.checks import verdict
 
-RUN_KEYS = {"dt", "status", "attitude_error", "max_attitude_error", "omega_error", "max_omega_error", "energy_drift",
-            "momentum_drift", "norm_drift", "wall_time", "steps_per_second", "repeats", "evaluations"}
+RUN_KEYS = {"dt", "status", "attitude_error", "max_attitude_error", "omega_error", "max_omega_error", "energy_change",
+            "momentum_change", "momentum_turn", "norm_drift", "wall_time", "steps_per_second", "repeats", "evaluations"}
 
 
 def test_run_json_keys():

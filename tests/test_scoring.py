@@ -224,7 +224,7 @@ def test_a_correct_file_passes_and_the_detective_stays_quiet(tmp_path):
     t, q, w = _truth()
     s = _score(_write(tmp_path / "good.csv", ["t_s", *Q, *W], (t, q, w)))
     assert s.passed and s.max_attitude_error < 1e-14 and s.max_rate_error < 1e-13 and s.findings == []
-    assert s.energy_drift < 1e-14 and s.momentum_drift < 1e-14
+    assert abs(s.energy_change) < 1e-14 and abs(s.momentum_change) < 1e-14 and s.momentum_turn < 1e-14
 
 
 # ------------------------------------------------------------------------------------------------------

@@ -1,6 +1,6 @@
 """The study's judgement (xcheck.study.assemble) on made-up worker results with known answers: orders and
 checks, the agreement check for every engine RK4 (runners with ``agreement``), expected failures, a reference
-that could not be computed, and the JSON it makes (schema xcheck.convergence/2)."""
+that could not be computed, and the JSON it makes (schema xcheck.convergence/3)."""
 
 import dataclasses
 
@@ -17,7 +17,7 @@ STEPS = [2.0**-k for k in range(3, 8)]
 def runs(p, c=1e-2):
     """Runs whose final error is exactly c dt^p (an observed order of p)."""
     return [Run(dt, attitude_error=c * dt**p, max_attitude_error=c * dt**p, omega_error=0.0, max_omega_error=0.0,
-                energy_drift=1e-14, momentum_drift=1e-14, norm_drift=0.0, wall_time=0.01, steps_per_second=1e5)
+                energy_change=1e-14, momentum_change=-1e-14, momentum_turn=1e-14, norm_drift=0.0, wall_time=0.01, steps_per_second=1e5)
             for dt in STEPS]
 
 
@@ -102,7 +102,7 @@ def test_a_reference_that_fails_when_evaluated_fails_the_study(scenario, monkeyp
 
 def test_json_keeps_the_schema(scenario):
     data = assemble(scenario, STEPS, [result("lie-rkmk4", runs(4))]).data
-    assert data["schema"] == "xcheck.convergence/2" and data["scenario"] == "tumbler-intermediate-axis"
+    assert data["schema"] == "xcheck.convergence/3" and data["scenario"] == "tumbler-intermediate-axis"
     assert set(data) >= {"description", "model", "duration", "reference", "torque", "initial", "quick", "steps",
                          "order_floor", "versions", "methods", "checks", "passed"}
     assert set(data["methods"]["lie-rkmk4"]) >= {"engine", "expected_order", "observed_order", "order_note",

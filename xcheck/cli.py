@@ -66,7 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", help="comma-separated steps in seconds (default: the scenario's)")
     p.add_argument("--quick", action="store_true", help="the scenario's quick steps")
     p.add_argument("--duration", help=DURATION_OPTION)
-    p.add_argument("--json", metavar="PATH", help="write the results (schema xcheck.convergence/2)")
+    p.add_argument("--json", metavar="PATH", help="write the results (schema xcheck.convergence/3)")
     p.add_argument("--out", metavar="DIR", help="write the figures into DIR")
     p.add_argument("--workers", type=int, default=None,
                    help="processes for the study, this one included (default: this process, and one worker for "
@@ -81,7 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "its three coarsest quick steps)")
     p.add_argument("--methods", help="comma-separated methods (default: every fixed-step method installed, ours, "
                                      "MuJoCo's and the engines', each engine's within a step budget)")
-    p.add_argument("--json", metavar="PATH", help="write the results (schema xcheck.horizon/1)")
+    p.add_argument("--json", metavar="PATH", help="write the results (schema xcheck.horizon/2)")
     p.add_argument("--out", metavar="DIR", help="write the figure (SCENARIO-horizon.png) into DIR")
     p.add_argument("--workers", type=int, default=None,
                    help="processes, this one included (default: 2 where there are two CPUs or more; 1: here only)")

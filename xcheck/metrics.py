@@ -1,4 +1,4 @@
-"""Accuracy metrics: attitude and rate errors against a reference, conserved quantities, observed order."""
+"""Accuracy metrics: attitude and rate errors against a reference, the invariants' signed changes, observed order."""
 
 from __future__ import annotations
 
@@ -9,15 +9,14 @@ import numpy as np
 from . import rotations as rot
 from ._jit import compiled_code_loaded, njit
 from .body import validate_inertia
+from .invariants import invariant_series, largest_change
 from .trajectory import Trajectory, same_step
 
 __all__ = [
-    "conserved_drift",
-    "conserved_series",
     "errors_against",
     "kinetic_energy",
     "world_momentum",
-    "invariant_drift",
+    "invariant_changes",
     "observed_order",
     "ladder_steps",
     "OrderFit",
@@ -122,31 +121,38 @@ def world_momentum(inertia, q, omega) -> np.ndarray:
     return rot.quat_rotate(q, np.asarray(omega, dtype=float) @ I.T)
 
 
-def invariant_drift(inertia, traj: Trajectory, torque=None) -> dict:
-    """Relative drift of the invariants over a trajectory (max over the grid).
-
-    ``energy_drift`` = max |E - E0| / E0 and ``momentum_drift`` = max |H - H0| / |H0| (conserved when
-    torque free), ``norm_drift`` = max ||q| - 1| (of the stored quaternion), and for DCM runs
-    ``orthogonality_drift`` = max |R^T R - I|. Under a ``torque`` (a :class:`~xcheck.fields.TorqueModel`), what
-    it conserves (:func:`conserved_drift`), None where it conserves nothing.
-    """
-    if torque is not None:
-        return conserved_drift(inertia, traj, torque)
+def invariant_changes(inertia, traj: Trajectory, torque=None) -> dict:
+    """The invariants' largest signed changes over a trajectory (:mod:`xcheck.invariants`): ``energy_change`` and
+    ``momentum_change`` (relative; positive: gained, negative: damped) and ``momentum_turn`` [rad] (L's direction),
+    each None where the motion does not keep it; ``norm_drift`` = max ||q| - 1| (of the quaternion the method
+    integrates); for a symmetric top (Lagrange's case) ``spin_change``, its spin momentum about its axis relative to
+    |L0| (signed); for DCM runs ``orthogonality_drift`` = max |R^T R - I|. Torque free, in one compiled pass with
+    numpy's operations (bit for bit :func:`~xcheck.invariants.invariant_series`'s numbers)."""
     I = validate_inertia(inertia)
     q, w = _rows(traj.q, 4), _rows(traj.omega, 3)
     if not len(q) == len(w) > 0:
-        raise ValueError(f"invariant_drift: expected as many (and some) quaternions as rates, got {len(q)} and {len(w)}")
-    E = kinetic_energy(I, w)
-    if not compiled_code_loaded():  # numpy's statement of the same operations (see compiled_code_loaded)
-        H = world_momentum(I, q, w)
-        drift = (np.max(np.abs(E - E[0])), np.max(np.linalg.norm(H - H[0], axis=-1)),
-                 np.max(np.abs(np.linalg.norm(q, axis=-1) - 1.0)), *H[0])
-    else:  # the rest in one compiled pass: world_momentum's rotation, the maxima (bit for bit numpy's)
-        drift = np.empty(6)
-        _drifts(q, np.ascontiguousarray(w @ I.T), E, drift)
-    E0, H0 = E[0], np.linalg.norm(drift[3:])
-    out = {"energy_drift": float(drift[0] / E0) if E0 > 0 else 0.0,
-           "momentum_drift": float(drift[1] / H0) if H0 > 0 else 0.0, "norm_drift": _norm_drift(traj, drift[2])}
+        raise ValueError(f"invariant_changes: expected as many (and some) quaternions as rates, got {len(q)} and "
+                         f"{len(w)}")
+    if torque is not None or not compiled_code_loaded():  # numpy's statement (see compiled_code_loaded)
+        out = invariant_series(I, q, w, torque, traj.t).largest()
+        norm = np.max(np.abs(np.linalg.norm(q, axis=-1) - 1.0))
+    else:  # torque free: the series' operations in one compiled pass, their largest values kept
+        E = kinetic_energy(I, w)
+        found = np.empty(4)
+        _changes(q, np.ascontiguousarray(w @ I.T), E, found)
+        out = {"energy_change": float(found[0] / E[0]) if E[0] > 0 else 0.0, "momentum_change": float(found[1]),
+               "momentum_turn": float(found[2])}
+        norm = found[3]
+    out["norm_drift"] = _norm_drift(traj, norm)
+    form = torque.fixed_form() if torque is not None and hasattr(torque, "fixed_form") else None
+    if form is not None:  # a symmetric top (Lagrange's): its spin momentum about its axis, relative to |L0|
+        from .reference import lagrange_why_not
+
+        if lagrange_why_not(I, *form) is None:
+            e3 = form[0] / np.linalg.norm(form[0])
+            spin = (w @ I) @ e3
+            L0 = np.linalg.norm(world_momentum(I, q[:1], w[:1]))
+            out["spin_change"] = largest_change((spin - spin[0]) / L0) if L0 > 0 else 0.0
     if "orthogonality" in traj.extras:
         out["orthogonality_drift"] = float(np.max(traj.extras["orthogonality"]))
     return out
@@ -160,79 +166,42 @@ def _norm_drift(traj: Trajectory, stored: float) -> float:
     return float(stored if own is None else np.max(np.abs(np.asarray(own, dtype=float) - 1.0)))
 
 
-def conserved_drift(inertia, traj: Trajectory, torque) -> dict:
-    """The drift of what a torque conserves (a top's gravity, a dipole in a field fixed in the world): the energy
-    with its potential ``T + V`` (``torque.potential``), relative to ``|T0| + |V0|``; the world angular momentum
-    along ``torque.momentum_axis()``, relative to ``|H0|``; each None when the torque conserves no such thing;
-    for a symmetric top (Lagrange's case) ``spin_drift``, its spin momentum about its axis relative to ``|H0|``;
-    and ``norm_drift`` as without a torque."""
-    I = validate_inertia(inertia)
-    q, w = _rows(traj.q, 4), _rows(traj.omega, 3)
-    series = conserved_series(I, q, w, torque, traj.t)
-    out = {key: None if series[key] is None else float(np.max(np.abs(series[key])))
-           for key in ("energy_drift", "momentum_drift")}
-    out["norm_drift"] = _norm_drift(traj, np.max(np.abs(np.linalg.norm(q, axis=-1) - 1.0)))
-    form = torque.fixed_form() if hasattr(torque, "fixed_form") else None
-    if form is not None:  # a symmetric top (Lagrange's): its spin momentum about its axis, relative to |H0|
-        from .reference import lagrange_why_not
-
-        if lagrange_why_not(I, *form) is None:
-            e3 = form[0] / np.linalg.norm(form[0])
-            spin = (w @ I) @ e3
-            H0 = series["H0"]
-            out["spin_drift"] = float(np.max(np.abs(spin - spin[0])) / H0) if H0 > 0 else 0.0
-    if "orthogonality" in traj.extras:
-        out["orthogonality_drift"] = float(np.max(traj.extras["orthogonality"]))
-    return out
-
-
-def conserved_series(inertia, q, omega, torque, t=None) -> dict:
-    """Per sample, the relative change of what ``torque`` conserves: ``energy_drift`` of ``T + V`` relative to
-    ``|T0| + |V0|`` (signed), ``momentum_drift`` of the world angular momentum along ``torque.momentum_axis()``
-    relative to ``|H0|`` (all of it, ``|H - H0| / |H0|``, for an internal torque: a gyrostat's wheels, whose
-    momentum ``h(t)`` the world momentum ``R (I w + h)`` includes; ``t`` the samples' times), each None where the
-    torque conserves no such thing; and ``H0``, ``|H0|``. What :func:`conserved_drift` takes the largest of, and
-    the error figure draws."""
-    I = validate_inertia(inertia)
-    out = {"energy_drift": None, "momentum_drift": None}
-    V = torque.potential(q) if hasattr(torque, "potential") else None
-    if V is not None:
-        T = kinetic_energy(I, omega)
-        scale = abs(T[0]) + abs(V[0])
-        out["energy_drift"] = (T + V - T[0] - V[0]) / scale if scale > 0 else np.zeros_like(T)
-    h = torque.internal_momentum(t) if t is not None and hasattr(torque, "internal_momentum") else None
-    H = world_momentum(I, q, omega) if h is None else rot.quat_rotate(q, np.asarray(omega, dtype=float) @ I.T + h)
-    out["H0"] = H0 = np.linalg.norm(H[0])
-    axis = torque.momentum_axis() if hasattr(torque, "momentum_axis") else None
-    if getattr(torque, "conserves_momentum", False) and h is not None:
-        out["momentum_drift"] = np.linalg.norm(H - H[0], axis=-1) / H0 if H0 > 0 else np.zeros(len(H))
-    elif axis is not None:
-        out["momentum_drift"] = np.abs((H - H[0]) @ axis) / H0 if H0 > 0 else np.zeros(len(H))
-    return out
+@njit(cache=True, error_model="numpy", inline="always")
+def _largest(largest, x):
+    """:func:`~xcheck.invariants.largest_change`'s running step: the first value largest in magnitude, a NaN once
+    met."""
+    return largest if largest != largest else (x if (abs(x) > abs(largest) or x != x) else largest)
 
 
 @njit(cache=True, error_model="numpy")
-def _drifts(q, v, E, out):
-    """``out`` = max |E - E0|, max |H - H0| with ``H = R(q) v`` (``rotations.quat_rotate``'s operations),
-    max ||q| - 1|, and H0 (see :func:`invariant_drift`)."""
-    e_max = h_max = n_max = h0x = h0y = h0z = 0.0
+def _changes(q, v, E, out):
+    """``out`` = the largest (signed) E - E0, |H|/|H0| - 1 and angle (H, H0) with ``H = R(q) v``
+    (``rotations.quat_rotate``'s operations), and max ||q| - 1| (see :func:`invariant_changes`)."""
+    e_big = l_big = turn_big = n_max = 0.0
+    h0x = h0y = h0z = h0 = 0.0
     for i in range(q.shape[0]):
-        e = abs(E[i] - E[0])
         w, x, y, z = _unit(q[i, 0], q[i, 1], q[i, 2], q[i, 3])
         vx, vy, vz = v[i, 0], v[i, 1], v[i, 2]
         tx, ty, tz = 2 * (y * vz - z * vy), 2 * (z * vx - x * vz), 2 * (x * vy - y * vx)
         hx = vx + w * tx + (y * tz - z * ty)
         hy = vy + w * ty + (z * tx - x * tz)
         hz = vz + w * tz + (x * ty - y * tx)
+        h = np.sqrt(hx * hx + hy * hy + hz * hz)
         if i == 0:
-            h0x, h0y, h0z = hx, hy, hz
-        dx, dy, dz = hx - h0x, hy - h0y, hz - h0z
-        h = np.sqrt(dx * dx + dy * dy + dz * dz)
+            h0x, h0y, h0z, h0 = hx, hy, hz, h
+        if h0 > 0:
+            size = h / h0 - 1.0
+            cx, cy, cz = hy * h0z - hz * h0y, hz * h0x - hx * h0z, hx * h0y - hy * h0x
+            turn = np.arctan2(np.sqrt(cx * cx + cy * cy + cz * cz), hx * h0x + hy * h0y + hz * h0z)
+        else:
+            size = turn = 0.0
+        e = E[i] - E[0]
         norm = abs(np.sqrt(q[i, 0] * q[i, 0] + q[i, 1] * q[i, 1] + q[i, 2] * q[i, 2] + q[i, 3] * q[i, 3]) - 1.0)
-        e_max = e if i == 0 else _larger(e_max, e)
-        h_max = h if i == 0 else _larger(h_max, h)
+        e_big = e if i == 0 else _largest(e_big, e)
+        l_big = size if i == 0 else _largest(l_big, size)
+        turn_big = turn if i == 0 else _larger(turn_big, turn)
         n_max = norm if i == 0 else _larger(n_max, norm)
-    out[0], out[1], out[2], out[3], out[4], out[5] = e_max, h_max, n_max, h0x, h0y, h0z
+    out[0], out[1], out[2], out[3] = e_big, l_big, turn_big, n_max
 
 
 @dataclass

@@ -1,7 +1,7 @@
 """What a cross-check found, as typed records computed once: a :class:`Run` (one method at one step),
 :class:`MethodRuns` (a method's runs as a worker measured them), a :class:`MethodResult` (its runs, observed
 order, finest good run and verdict) and a :class:`Check` (kind,
-method, passed, value, limit, note). The JSON of schema ``xcheck.convergence/2`` is made from them at the edge
+method, passed, value, limit, note). The JSON of schema ``xcheck.convergence/3`` is made from them at the edge
 (``to_json``), with every key it has always had; ``verdict`` is new.
 
 Verdicts: ``pass`` every check of the method passed; ``fail`` one failed (or the study's reference could not
@@ -50,7 +50,7 @@ def json_number(v):
 class Run:
     """One run of one method at one step (an adaptive method's: at one relative tolerance ``rtol``, with ``dt`` its
     output step). Errors are against the reference at the final time (``attitude_error`` [rad], ``omega_error``
-    [rad/s]) and their maxima over the run; drifts are relative (energy, momentum) or absolute (quaternion norm);
+    [rad/s]) and their maxima over the run; the invariants' changes are signed (see the fields) and the quaternion norm's drift absolute;
     ``None`` where not measured (a failed run, a torqued scenario's invariants). ``wall_time`` [s] is the best of
     ``repeats`` runs (short runs are repeated until a small budget is spent); ``evaluations`` the right-hand-side
     (or engine stage) evaluations of one run, a measure of work that does not depend on the machine (None where
@@ -63,9 +63,13 @@ class Run:
     max_attitude_error: float | None = None
     omega_error: float | None = None
     max_omega_error: float | None = None
-    energy_drift: float | None = None
-    momentum_drift: float | None = None
-    spin_drift: float | None = None  # a symmetric top's spin momentum about its axis (None: not conserved)
+    #: the invariants' largest changes over the run (:mod:`xcheck.invariants`): the energy's and |L|'s relative and
+    #: signed (positive: the method gained, negative: it damped), the angle [rad] L's direction turned; a symmetric
+    #: top's spin momentum about its axis relative to |L0|, signed; None where the motion does not keep it
+    energy_change: float | None = None
+    momentum_change: float | None = None
+    momentum_turn: float | None = None
+    spin_change: float | None = None
     #: a gyrostat's largest wheel-speed error over the run [rad/s], relative to the body (an engine's own wheels,
     #: ours from the wheels' momentum and the body rate); None without wheels
     wheel_speed_error: float | None = None
@@ -91,7 +95,7 @@ class Run:
 
     def to_json(self) -> dict:
         out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "message"
-               and not (f.name in ("rtol", "spin_drift", "wheel_speed_error") and getattr(self, f.name) is None)}
+               and not (f.name in ("rtol", "spin_change", "wheel_speed_error") and getattr(self, f.name) is None)}
         if not self.ok or self.message:  # a failure's reason, or a good run's note (an engine's rounded clock)
             out["message"] = self.message
         return out

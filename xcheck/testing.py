@@ -184,10 +184,11 @@ def assert_agrees(scenario_or_path, a: str, b: str, *, dt: float, atol: float):
 
 def assert_invariants(scenario_or_path, *, method: str, dt: float | None = None, rtol: float = 1e-9,
                       norm_atol: float = 1e-12):
-    """A torque-free scenario conserves kinetic energy and world angular momentum: their relative drift over the
-    run of ``method`` at ``dt`` (default: the finest quick step) is at most ``rtol``, and the quaternion's norm
-    stays within ``norm_atol`` of 1. Returns the drifts."""
-    from .metrics import invariant_drift
+    """A torque-free scenario keeps its kinetic energy, |L| and L's direction: over the run of ``method`` at ``dt``
+    (default: the finest quick step) the largest relative change of the energy and of |L| (signed: + gained, -
+    damped) and the angle [rad] L's direction turned are each at most ``rtol`` in magnitude, and the quaternion's
+    norm stays within ``norm_atol`` of 1. Returns the changes (:func:`xcheck.metrics.invariant_changes`)."""
+    from .metrics import invariant_changes
     from .runners import RUNNERS
     from .study.context import run_context
 
@@ -199,10 +200,18 @@ def assert_invariants(scenario_or_path, *, method: str, dt: float | None = None,
     traj = RUNNERS[method].run(ctx, dt)
     if not traj.ok:
         raise XcheckAssertionError(f"{sc.name}: {method} at Δt = {dt:g} s did not complete: {traj.message}")
-    drift = invariant_drift(ctx.inertia, traj)
-    bad = [f"{k.replace('_', ' ')} {drift[k]:.3g} > {lim:g}" for k, lim in
-           (("energy_drift", rtol), ("momentum_drift", rtol), ("norm_drift", norm_atol))
-           if not (math.isfinite(drift[k]) and drift[k] <= lim)]
+    changes = invariant_changes(ctx.inertia, traj)
+    words = {"energy_change": ("energy", rtol, "{:+.3g}"), "momentum_change": ("|L|", rtol, "{:+.3g}"),
+             "momentum_turn": ("L's direction turned", rtol, "{:.3g} rad"),
+             "norm_drift": ("quaternion norm off 1 by", norm_atol, "{:.3g}")}
+
+    def said(key, name, form):
+        change = changes[key]
+        signed = key in ("energy_change", "momentum_change") and change == change and change != 0
+        return f"{name} {form.format(change)}" + ((" (gained)" if change > 0 else " (damped)") if signed else "")
+
+    bad = [f"{said(k, name, form)}, beyond ±{lim:g}" for k, (name, lim, form) in words.items()
+           if not (math.isfinite(changes[k]) and abs(changes[k]) <= lim)]
     if bad:
         raise XcheckAssertionError(f"{sc.name}: {method} at Δt = {dt:g} s over {sc.duration:g} s: " + "; ".join(bad))
-    return drift
+    return changes

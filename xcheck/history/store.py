@@ -13,7 +13,9 @@ xcheck[postgres]``), with three tables:
                  version matrix in its own virtual environment).
 ``metrics``      one row per figure: run id, scenario, method, step ``dt`` [s] (NULL for a figure of the whole
                  method or scenario), metric name, value. Names: ``attitude_error`` ``max_attitude_error``
-                 ``energy_drift`` ``momentum_drift`` ``norm_drift`` ``wall_time`` ``steps_per_second`` per run;
+                 ``energy_change`` ``momentum_change`` (signed: + gained, - damped) ``momentum_turn`` [rad]
+                 ``norm_drift`` ``wall_time`` ``steps_per_second`` per run (before xcheck.convergence/3, unsigned
+                 ``energy_drift`` and ``momentum_drift``, |L - L0| / |L0|: old rows keep those names);
                  ``observed_order`` ``finest_error`` ``verdict`` (1 pass, 0 fail) per method; ``passed`` and
                  ``order_floor`` per scenario (method ``""``); ``check:<name>`` (1 passed, 0.5 inconclusive, 0 failed)
                  per check (``passed`` per scenario likewise, by its outcome);
@@ -51,8 +53,8 @@ BUSY_TIMEOUT = 60.0
 
 RUN_COLUMNS = ("started", "finished", "git_commit", "xcheck", "mujoco", "numpy", "scipy", "numba", "python",
                "host", "cpus", "passed", "report", "quick", "environment")
-RUN_METRICS = ("attitude_error", "max_attitude_error", "energy_drift", "momentum_drift", "norm_drift", "wall_time",
-               "steps_per_second")
+RUN_METRICS = ("attitude_error", "max_attitude_error", "energy_change", "momentum_change", "momentum_turn",
+               "norm_drift", "wall_time", "steps_per_second")
 #: Versions whose change between two runs is marked on the History section's time axis.
 VERSION_COLUMNS = ("xcheck", "mujoco", "numpy", "scipy", "numba", "python")
 TABLES = ("xcheck_meta", "runs", "metrics", "sweep_cells")

@@ -65,7 +65,7 @@ def probe(quick: bool = True, scenarios=None, workers: int | None = 1) -> dict:
             "methods": {m: {"expected": e["expected_order"], "observed": e["observed_order"],
                             "finest": min((r["attitude_error"] for r in e["runs"] if r["attitude_error"] is not None),
                                           default=None),
-                            "energy_drift": _finest(e, "energy_drift"), "verdict": e["verdict"]}
+                            "energy_change": _finest(e, "energy_change"), "verdict": e["verdict"]}
                         for m, e in st.data["methods"].items()},
             "failed": [c["name"] + ": " + (c.get("note") or "") for c in st.data["checks"] if not c["passed"]]}
     for case in CASES:
@@ -212,7 +212,7 @@ def markdown(probes: dict, failures: dict, *, version: str, command: str, first_
                   "at 1e-3 s fell from 1e-2 to 7e-6 and rose again. No release's first-order integrators come near "
                   "RK4 on rotating bodies.", ""]
     head = ["release", "scenarios passed", "RK4 order, tumbler (free)", "RK4 order, gyroscope", "RK4 order, heavy top "
-            "(ball joint)", "implicitfast order, tumbler", "implicitfast energy drift, tumbler",
+            "(ball joint)", "implicitfast order, tumbler", "implicitfast energy change (+ gained), tumbler",
             "boxes ‖ΔH‖/‖H₀‖ at 1e-3 s: euler", "boxes: implicit", "boxes: implicitfast", "boxes: rk4",
             "changed from the release before (measured)",
             "changelog"]
@@ -226,11 +226,11 @@ def markdown(probes: dict, failures: dict, *, version: str, command: str, first_
         sc = d["scenarios"]
         passed = sum(s["passed"] for s in sc.values())
         tumbler = sc.get(PROBE_SCENARIO, {}).get("methods", {})
-        drift = tumbler.get("mujoco-implicitfast", {}).get("energy_drift")
+        drift = tumbler.get("mujoco-implicitfast", {}).get("energy_change")
         cells = [v, f"{passed} of {len(sc)}", _order(tumbler.get("mujoco-rk4")),
                  _order(sc.get("gyroscope-nonsingular", {}).get("methods", {}).get("mujoco-rk4")),
                  _order(sc.get("heavy-top", {}).get("methods", {}).get("mujoco-rk4")),
-                 _order(tumbler.get("mujoco-implicitfast")), "—" if drift is None else f"{drift:.2g}",
+                 _order(tumbler.get("mujoco-implicitfast")), "—" if drift is None else f"{drift:+.2g}",
                  *(_boxes(d, i) for i in ("euler", "implicit", "implicitfast", "rk4"))]
         changed = "" if before is None else "; ".join(f"{head[k]} {before[k]} → {cells[k]}" for k in range(2, len(cells))
                                                        if cells[k] != before[k])

@@ -6,7 +6,8 @@ where the full report's goal is three seconds a scenario (docs/decisions.md)."""
 
 from __future__ import annotations
 
-from ..study.horizon import THRESHOLDS, default_steps, horizon_methods, horizon_plan, run_horizon, within_text
+from ..study.horizon import (THRESHOLDS, change_texts, default_steps, horizon_methods, horizon_plan, run_horizon,
+                             within_text)
 
 __all__ = ["horizon_job", "horizon_section", "start_horizons", "with_horizon", "PARTS"]
 
@@ -23,7 +24,7 @@ PARTS = 2
 
 def horizon_job(scenario, methods=None) -> tuple[dict, str | None]:
     """One scenario's horizon study of ``methods`` (default: :func:`~xcheck.study.horizon.horizon_methods`; a part of
-    them, named by this process: a worker's registry may list the engines in another order): ``(xcheck.horizon/1
+    them, named by this process: a worker's registry may list the engines in another order): ``(xcheck.horizon/2
     document, why it could not run)``; the reference refused over the duration is the second (the document then names
     the scenario alone)."""
     import time
@@ -125,7 +126,9 @@ def horizon_section(started) -> "object | None":
                    "2.5e-15 checked against itself at half the tolerance). For each method and step: the attitude "
                    "error at the end, its growth law error ∝ tᵖ (Runge-Kutta methods: p from 1 toward 2 as the phase "
                    "error takes over; the symplectic splittings and the variational integrator: 1, a phase error "
-                   "alone), the energy's drift where the motion keeps one (bounded, secular, tᵠ, or round-off), and "
+                   "alone), the largest change of each invariant the motion keeps, signed (the energy's and |L|'s relative: + "
+                   "gained, − damped; the angle L's direction turned), with its law (gains or damps ∝ t or tᵠ, a "
+                   "bounded oscillation, or round-off), and "
                    "the verdict: how long it stays within 1e-6 and 1e-3 rad. The same as xcheck horizon SCENARIO.")]
     figures = []
     for doc, figure, why in results:
@@ -134,21 +137,24 @@ def horizon_section(started) -> "object | None":
             blocks.append(Para(f"Not run: {why}."))
             continue
         blocks.append(Para(f"Reference: {doc['reference_note']}."))
-        head = ["method", "step [s]", "error at T [rad]", "p", "energy", "momentum's direction",
+        labels = dict.fromkeys(line.get("momentum_label", "|L|") for line in doc["lines"] if line["status"] == "ok")
+        head = ["method", "step [s]", "error at T [rad]", "p", "energy (+ gained, − damped)",
+                " or ".join(labels) or "|L|",
+                "L's direction [rad]",
                 *(f"within {b:g} rad" for b in THRESHOLDS)]
         rows = []
         for line in doc["lines"]:
             if line["status"] != "ok":
                 mine = RUNNERS[line["method"]].engine == "xcheck"
                 rows.append([Cell(line["method"], "fail" if mine else ""), Cell(f"{line['dt']:g}", num=True),
-                             Cell(f"failed: {line['message']}"), "", "", "", "", ""])
+                             Cell(f"failed: {line['message']}"), "", "", "", "", "", ""])
                 continue
             within = [line["within"][f"{b:g}"] for b in THRESHOLDS]
             verdict = "pass" if within[-1] >= doc["duration"] else ""
             rows.append([Cell(line["method"], verdict), Cell(f"{line['dt']:g}", num=True),
                          Cell(f"{line['final_error']:.3g}", num=True),
                          Cell("—" if line["growth"] is None else f"{line['growth']:.2f}", num=True),
-                         line["energy_law"] or "—", line.get("momentum_law") or "—",
+                         *change_texts(line),
                          *(Cell(within_text(w, doc["duration"]), num=True) for w in within)])
         whole = sum(1 for line in doc["lines"] if line["status"] == "ok"
                     and line["within"][f"{THRESHOLDS[-1]:g}"] >= doc["duration"])

@@ -13,6 +13,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from .. import rotations as rot  # noqa: E402
+from ..invariants import LABELS, largest_change  # noqa: E402
 from ..runners import RUNNERS  # noqa: E402
 from ..trajectory import step_label  # noqa: E402
 
@@ -66,11 +67,14 @@ def render_figures(data: dict, series: dict, *, quick: bool = False) -> list[tup
             potential = "T + V" in next(iter(series.values())).get("energy_label", "")
             figs.append(png_of(_errors_in_time(series, colors, torque_free), f"{name}-error.png",
                              "Attitude error against time for the finest step of each method" +
-                             ("; below it the relative drift of the energy with its potential (T + V) and of the "
-                              "angular momentum about the vertical, which the model's own torque (gravity about "
-                              "the pivot) conserves." if torque_free and potential else
-                              "; below it the relative drift of kinetic energy and of world angular momentum "
-                              "(torque free: both are conserved)." if torque_free else ".")))
+                             ("; below it the relative change of the energy with its potential (T + V) and of the "
+                              "angular momentum's component about the vertical, which the model's own torque "
+                              "(gravity about the pivot) keeps" if torque_free and potential else
+                              "; below it the relative change of the kinetic energy and of |L|, the world angular "
+                              "momentum's magnitude, and the angle its direction turned (torque free: all three are "
+                              "kept)" if torque_free else "") + (
+                                 ": solid where the method gains, dashed where it damps (the sign of its largest "
+                                 "change)." if torque_free else ".")))
             if quick:  # a fast look: the time histories of the seeds are in the full report
                 return figs
             if data.get("torque") is None and "euler-rk4" in data["methods"]:
@@ -381,21 +385,31 @@ def _comparisons(data, colors):
 
 
 def _errors_in_time(series, colors, torque_free: bool):
-    """Attitude error against time; torque free, also the energy and momentum drifts (shared time axis)."""
-    size = (7.5, 6.6) if torque_free else (7.5, 3.6)
-    fig, axes = subplots(3 if torque_free else 1, size=size, legend_outside=True, sharex=True)
+    """Attitude error against time; torque free, below it the invariants kept apart (shared time axis): the energy's
+    and |L|'s relative changes, their magnitude on log axes, solid where the method gained and dashed where it damped
+    (the sign of its largest change), and the angle L's direction turned where it is kept."""
+    turn = torque_free and any(s.get("momentum_turn") is not None for s in series.values())
+    rows = 1 + (2 + turn if torque_free else 0)
+    fig, axes = subplots(rows, size=(7.5, 1.4 + 2.0 * rows), legend_outside=True, sharex=True)
     axes = np.atleast_1d(axes)
     for name, s in series.items():
         e = np.maximum(np.asarray(s["attitude_error"], float), 1e-17)
         axes[0].semilogy(s["t"], e, lw=1, color=colors.get(name), label=f"{name} (Δt = {step_label(s['dt'])} s)")
-        if torque_free:
-            axes[1].semilogy(s["t"], np.maximum(np.abs(s["energy_drift"]), 1e-18), lw=1, color=colors.get(name))
-            axes[2].semilogy(s["t"], np.maximum(s["momentum_drift"], 1e-18), lw=1, color=colors.get(name))
+        if not torque_free:
+            continue
+        for ax, key in zip(axes[1:], ("energy_change", "momentum_change", "momentum_turn")):
+            if s.get(key) is not None:
+                y = np.asarray(s[key], dtype=float)
+                ax.semilogy(s["t"], np.maximum(np.abs(y), 1e-18), "--" if largest_change(y) < 0 else "-", lw=1,
+                            color=colors.get(name))
     axes[0].set_ylabel("attitude error [rad]")
-    if torque_free:  # what is conserved: a top's energy has its potential, its momentum is the vertical's
+    if torque_free:  # what is kept: a top's energy has its potential, its momentum is the vertical's component
         first = next(iter(series.values()), {})
-        axes[1].set_ylabel(first.get("energy_label", "|E/E0 - 1|"))
-        axes[2].set_ylabel(first.get("momentum_label", "|H - H0| / |H0|"))
+        axes[1].set_ylabel(f"|{first.get('energy_label', LABELS['energy'])}|", fontsize=8)
+        axes[2].set_ylabel(f"|{first.get('momentum_label', LABELS['momentum'])}|", fontsize=8)
+        axes[1].set_title("solid: the method gains, dashed: it damps", loc="left", fontsize=8)
+        if turn:
+            axes[3].set_ylabel("L's direction\nturned [rad]", fontsize=8)
     axes[-1].set_xlabel("t [s]")
     side_legend(axes[0], loc="upper")
     return fig
@@ -501,11 +515,11 @@ def _torqued_histories(data, series, name):
 
 
 def horizon_figure(doc: dict):
-    """The horizon study (``xcheck horizon``'s JSON, schema xcheck.horizon/1): attitude error against time on log-log
+    """The horizon study (``xcheck horizon``'s JSON, schema xcheck.horizon/2): attitude error against time on log-log
     axes, one panel per step, each method a line; below, the relative energy drift where the motion keeps one."""
     steps = doc["steps"]
     lines = [line for line in doc["lines"] if line["status"] == "ok"]
-    energy = any(line["energy_drift"] is not None for line in lines)
+    energy = any(line["energy_change"] is not None for line in lines)
     names = list(dict.fromkeys(line["method"] for line in doc["lines"]))
     colors = colors_of(names)
     fig, axes = subplots(2 if energy else 1, len(steps), size=(4.2 * len(steps) + 2.5, 7.4 if energy else 4.2),
@@ -516,9 +530,10 @@ def horizon_figure(doc: dict):
             t = np.asarray(line["t"], dtype=float)
             top.loglog(t, np.maximum(np.asarray(line["attitude_error"], dtype=float), 1e-17),
                        line_style(line["method"]), lw=1.2, color=colors[line["method"]], label=line["method"])
-            if energy and line["energy_drift"] is not None:
-                axes[1, col].loglog(t, np.maximum(np.asarray(line["energy_drift"], dtype=float), 1e-17),
-                                    line_style(line["method"]), lw=1.2, color=colors[line["method"]])
+            if energy and line["energy_change"] is not None:  # solid: gains, dashed: damps (line_style's)
+                y = np.asarray(line["energy_change"], dtype=float)
+                axes[1, col].loglog(t, np.maximum(np.abs(y), 1e-17), "--" if largest_change(y) < 0 else "-",
+                                    lw=1.2, color=colors[line["method"]])
         for bound in (1e-6, 1e-3):
             top.axhline(bound, color="0.5", lw=0.8, ls=":")
         top.set_title((f"{doc['scenario']} over {doc['duration']:g} s ({doc['reference']} reference)\n" if col == 0
@@ -527,6 +542,7 @@ def horizon_figure(doc: dict):
     axes[0, 0].set_ylabel("attitude error [rad]")
     if energy:
         axes[1, 0].set_ylabel("|E/E₀ − 1|")
+        axes[1, 0].set_title("solid: the method gains energy, dashed: it damps", loc="left", fontsize=8)
     fig.subplots_adjust(top=1 - 0.6 / fig.get_size_inches()[1])  # the two-line titles
     side_legend(axes[0, -1], *_unique_handles(axes[0]), loc="upper")
     return fig

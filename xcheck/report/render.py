@@ -417,7 +417,7 @@ def _file_blocks(st) -> list:
     rows = []
     for name, f in st.files.items():
         cls = "pass" if f.passed else ("expected" if name in st.scenario.checks["expected_to_fail"] else "fail")
-        drift = "—" if f.energy_drift is None else f"{f.energy_drift:.1e} / {f.momentum_drift:.1e}"
+        drift = "—" if f.energy_change is None else f"{f.energy_change:+.1e} / {f.momentum_change:+.1e}"
         rows.append([Cell(name, cls), f"{f.rows:,}", Cell(fmt(f.max_attitude_error, ".2e"), num=True),
                      Cell(fmt(f.max_rate_error, ".2e"), num=True),
                      Cell("—" if f.growth is None else f"t^{f.growth:.2f}", num=True), Cell(drift, num=True),
@@ -425,9 +425,9 @@ def _file_blocks(st) -> list:
     blocks = [Para("Trajectory files of other simulators, each one run scored against the same reference (no "
                    "order): the largest attitude error [rad] and body-rate error [rad/s] over the run, the growth "
                    "of the attitude error (the exponent p of t^p over the last nine tenths), and the largest "
-                   "relative drift of the energy and of the angular momentum's magnitude computed from the file's "
-                   "own samples.", small=True),
-              Table(["file", "rows", "attitude", "rate", "growth", "energy / momentum", "verdict"], rows)]
+                   "relative change of the energy and of the angular momentum's magnitude |L| computed from the file's "
+                   "own samples (+ gained, − damped).", small=True),
+              Table(["file", "rows", "attitude", "rate", "growth", "energy / |L|", "verdict"], rows)]
     for name, f in st.files.items():
         read = f"{name}: read as {f.convention}" + (f"; source: {f.source}" if f.source else "")
         blocks.append(Para([(f.sentence() + ". ", None), (read + ".", None)]

@@ -88,8 +88,8 @@ def _summary(spec, records, methods, timings, ran, reused, wall_time) -> dict:
 # the tidy table
 # ------------------------------------------------------------------------------------------------------
 RUN_COLUMNS = ("dt", "rtol", "status", "attitude_error", "max_attitude_error", "omega_error", "max_omega_error",
-               "energy_drift", "momentum_drift", "norm_drift", "wall_time", "repeats", "evaluations",
-               "steps_per_second")
+               "energy_change", "momentum_change", "momentum_turn", "norm_drift", "wall_time", "repeats",
+               "evaluations", "steps_per_second")
 
 
 def tidy_rows(spec: SweepSpec, records: dict[str, dict]) -> list[dict]:

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import rotations as rot
-from ..metrics import kinetic_energy, world_momentum
+from ..invariants import invariant_series
 from .convention import Convention, to_world
 from .detective import EXPLAINS, investigate
 from .earth import Earth
@@ -40,8 +40,11 @@ class FileScore:
     final_attitude_error: float
     max_rate_error: float | None
     growth: float | None
-    energy_drift: float | None
-    momentum_drift: float | None
+    #: the invariants' largest changes over the file's samples, torque free (:mod:`xcheck.invariants`): the energy's
+    #: and |L|'s relative and signed (+ gained, - damped), the angle [rad] L's direction turned; None otherwise
+    energy_change: float | None
+    momentum_change: float | None
+    momentum_turn: float | None
     tolerance: float
     rate_tolerance: float | None
     outcome: str
@@ -78,8 +81,9 @@ class FileScore:
 
     def to_json(self) -> dict:
         out = {k: getattr(self, k) for k in ("name", "file", "convention", "rows", "max_attitude_error",
-                                             "final_attitude_error", "max_rate_error", "growth", "energy_drift",
-                                             "momentum_drift", "tolerance", "rate_tolerance", "outcome", "tried")}
+                                             "final_attitude_error", "max_rate_error", "growth", "energy_change",
+                                             "momentum_change", "momentum_turn", "tolerance", "rate_tolerance",
+                                             "outcome", "tried")}
         out["span"] = list(self.span)
         out["sentence"] = self.sentence()
         for key in ("source", "findings", "best_reading", "notes"):
@@ -139,19 +143,17 @@ def score_file(conv: Convention, reference, *, inertia, duration: float, earth: 
     max_att = float(np.nanmax(att))
     max_rate = float(np.nanmax(rate)) if rate is not None else None
     passed = max_att <= tol and (max_rate is None or max_rate <= rate_tol)
-    energy = momentum = None
-    if torque_free and world.omega is not None:
-        E = kinetic_energy(inertia, world.omega)
-        L = np.linalg.norm(world_momentum(inertia, world.q, world.omega), axis=1)
-        energy = float(np.max(np.abs(E - E[0])) / E[0]) if E[0] > 0 else None
-        momentum = float(np.max(np.abs(L - L[0])) / L[0]) if L[0] > 0 else None
+    kept = {}
+    if torque_free and world.omega is not None:  # the file's own samples' invariants, signed (+ gained, - damped)
+        kept = invariant_series(inertia, world.q, world.omega).largest()
     keep = _log_spread(world.t, PLOT_POINTS)
     series = {"t": world.t[keep], "attitude_error": att[keep],
               **({"rate_error": rate[keep]} if rate is not None else {})}
     score = FileScore(name=conv.name, file=str(conv.file), convention=conv.describe(), rows=len(world.t),
                       span=(float(world.t[0]), float(world.t[-1])), max_attitude_error=max_att,
                       final_attitude_error=float(att[mask][-1]), max_rate_error=max_rate,
-                      growth=growth_exponent(world.t[mask], att[mask]), energy_drift=energy, momentum_drift=momentum,
+                      growth=growth_exponent(world.t[mask], att[mask]), energy_change=kept.get("energy_change"),
+                      momentum_change=kept.get("momentum_change"), momentum_turn=kept.get("momentum_turn"),
                       tolerance=tol, rate_tolerance=rate_tol if rate is not None else None,
                       outcome="PASSED" if passed else "FAILED",
                       source=conv.source, notes=notes, series=series)

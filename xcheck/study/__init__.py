@@ -1,5 +1,5 @@
 """Convergence studies: every method x every step of a scenario against its reference, in worker
-processes (deterministic: each run is independent), producing results of schema ``xcheck.convergence/2``
+processes (deterministic: each run is independent), producing results of schema ``xcheck.convergence/3``
 plus the sampled series the report plots.
 
 The package: this module plans the studies and assembles their results (:class:`StudyResult`);
@@ -37,7 +37,7 @@ __all__ = ["run_study", "run_studies", "assemble", "StudyResult", "PLOT_SAMPLE_D
            "planned_checks", "default_methods", "not_run", "comparison_partner", "method_steps",
            "left_out_lines"]
 
-SCHEMA = "xcheck.convergence/2"  # 2: the answer at the user's step, ``your_step`` (issue 59)
+SCHEMA = "xcheck.convergence/3"  # 2: the answer at the user's step, ``your_step`` (issue 59); 3: the invariants signed and apart (issue 60)
 
 
 @dataclass
@@ -45,7 +45,7 @@ class StudyResult:
     """A study's findings, typed (:mod:`xcheck.results`): the scenario, its steps (coarse to fine), every
     method's result, the checks; ``series``: per method, the sampled finest good run (``t``, ``q``, ``omega``,
     ``attitude_error``, ``energy``, ``momentum``, ``euler``) and the reference on the same times, for plots and
-    CSV. :attr:`data` is the JSON (schema ``xcheck.convergence/2``)."""
+    CSV. :attr:`data` is the JSON (schema ``xcheck.convergence/3``)."""
 
     scenario: Scenario
     steps: list

@@ -165,12 +165,13 @@ def check_summary(check: Check, cfg: dict) -> str:
         allowed = f"{check.limit - cfg['order_tolerance']:.2f} … {check.limit + cfg['order_excess']:.2f}"
         observed = "—" if check.value is None else f"{check.value:.4g}"  # 2.001 is not within 2.00
         return f"observed order {observed}; expected {num(check.limit)} (allowed {allowed})"
-    what = {"final-error": "attitude error at the finest step", "invariants": "energy / momentum drift at the "
-            "finest step", "agreement": "worse of the two errors"}.get(check.kind)
+    what = {"final-error": "attitude error at the finest step", "invariants": "largest invariant change (energy, |L|, "
+            "L's direction) at the finest step", "agreement": "worse of the two errors"}.get(check.kind)
     if what is None or check.value is None:
         return check.note
-    unit = "" if check.kind == "invariants" else " rad"
-    return f"{what} {num(check.value)}{unit}; limit {num(check.limit)}{unit}"
+    if check.kind == "invariants":  # signed: which way it drifts
+        return f"{what} {check.value:+.3g}; limit ±{num(check.limit)}"
+    return f"{what} {num(check.value)} rad; limit {num(check.limit)} rad"
 
 
 def _final_error(m: MethodResult, cfg, ctx) -> Check | None:
@@ -183,13 +184,15 @@ def _invariants(m: MethodResult, cfg, ctx) -> Check | None:
     f = m.finest
     if f is None:
         return None
-    drifts = {name: value for name, value in (("energy", f.energy_drift), ("momentum", f.momentum_drift),
-                                              ("spin momentum", f.spin_drift)) if value is not None}
-    if not drifts:
+    changes = {name: value for name, value in (("energy", f.energy_change), ("|L|", f.momentum_change),
+                                               ("L's direction", f.momentum_turn), ("spin momentum", f.spin_change))
+               if value is not None}
+    if not changes:
         return None
-    drift = max(drifts.values())
-    return Check("invariants", drift <= cfg["invariant_tolerance"], m.name, drift, cfg["invariant_tolerance"],
-                 f"{' and '.join(drifts)} drift at dt = {f.dt:g} s")
+    name, change = max(changes.items(), key=lambda kv: abs(kv[1]))
+    sign = "an angle [rad]" if name == "L's direction" else "+ gained, - damped"
+    return Check("invariants", abs(change) <= cfg["invariant_tolerance"], m.name, change, cfg["invariant_tolerance"],
+                 f"the largest change of {', '.join(changes)} at dt = {f.dt:g} s is {name}'s ({sign})")
 
 
 def _agreement(m: MethodResult, cfg, ctx) -> Check | None:

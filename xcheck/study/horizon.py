@@ -15,13 +15,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..rotations import attitude_error, quat_rotate
+from ..invariants import LABELS, change_text, drift_law, invariant_series, largest_change, law_text
+from ..rotations import attitude_error
 from ..runners import RUNNERS
 from ..scenario import Scenario
 
 __all__ = ["HorizonLine", "HorizonResult", "run_horizon", "horizon_methods", "horizon_plan", "ENGINE_STEPS",
            "default_duration", "default_steps", "within_text", "DEFAULT_STEP_COUNT",
-           "growth_exponent", "drift_law", "time_within", "log_indices", "THRESHOLDS", "LOG_SAMPLES", "UNIFORM_SAMPLES"]
+           "growth_exponent", "drift_law", "change_texts", "time_within", "log_indices", "THRESHOLDS", "LOG_SAMPLES", "UNIFORM_SAMPLES"]
 
 #: The attitude errors [rad] whose first crossing a horizon study reports.
 THRESHOLDS = (1e-6, 1e-3)
@@ -37,11 +38,6 @@ HORIZON_RTOL = 2.5e-15
 #: by it: the errors it reads go down to 1e-6 rad (a day of RAX-1 with its momentum wheel and the gravity gradient
 #: differs by 3.1 rad: that motion is too sensitive to be referenced over a day).
 REFERENCE_LIMIT = 1e-8
-#: A drift at least this large (half the energy lost or gained, an angle of 0.5 rad) is "not kept": its running maximum
-#: stalls there (MuJoCo's implicitfast damps 95 % of the tumbler's energy over an orbit), which is no bounded error.
-NOT_KEPT = 0.5
-#: A relative energy drift below this a step is round-off (LGVI's, torque free: 1.6e-16 a step over 1e5 steps).
-DRIFT_ROUND_OFF = 1e-15
 #: The steps an engine's method takes in a horizon study at most, summed over its steps coarse to fine (its finer
 #: steps beyond are left out, and the study says so): the engines other than MuJoCo cost 1-40 us a step where ours
 #: cost 0.1-2, and an hour of the gyroscope at 1/64 s is 230 000 steps. Its coarsest step alone may exceed it: then
@@ -61,19 +57,42 @@ class HorizonLine:
     message: str = ""
     t: list = field(default_factory=list)
     attitude_error: list = field(default_factory=list)
-    energy_drift: list | None = None
     growth: float | None = None
+    #: the invariants at the sampled times (:mod:`xcheck.invariants`), each None where the motion does not keep it:
+    #: the energy's and |L|'s signed relative changes (positive: gained, negative: damped; a top's: its energy with
+    #: the potential, and its L's component about the vertical) and the angle [rad] L's direction turned; each with
+    #: its law and direction ("gains ∝ t", "damps ∝ t^1.50", "bounded oscillation", "round-off") and, where it grows
+    #: or stays bounded, the exponent of its running maximum
+    energy_change: list | None = None
     energy_law: str | None = None
     energy_exponent: float | None = None
-    #: the angle [rad] between the world angular momentum and its start, where the motion keeps it (torque free), and
-    #: its law as the energy's
-    momentum_drift: list | None = None
+    momentum_change: list | None = None
     momentum_law: str | None = None
+    #: what ``momentum_change`` is: "|L|", or "L·ĝ" (a top's component about the vertical, its direction not kept)
+    momentum_label: str = "|L|"
+    momentum_turn: list | None = None
+    turn_law: str | None = None
     within: dict = field(default_factory=dict)
     final_error: float | None = None
 
     def to_json(self) -> dict:
         return dataclasses.asdict(self) | {"within": {f"{k:g}": v for k, v in self.within.items()}}
+
+    @staticmethod
+    def momentum_heading(lines) -> str:
+        """The |L| column's heading for these lines: "|L|", "L·ĝ" (tops), or both."""
+        return " or ".join(dict.fromkeys(line.momentum_label for line in lines if line.status == "ok")) or "|L|"
+
+    def change_texts(self) -> tuple[str, str, str]:
+        """The energy's, |L|'s and L's direction's largest changes with their laws, in words (``—``: not kept)."""
+        return change_texts(self.to_json())
+
+
+def change_texts(line: dict) -> tuple[str, str, str]:
+    """:meth:`HorizonLine.change_texts` of a line's JSON (the report reads the JSON)."""
+    return (change_text(largest_change(line["energy_change"]), line["energy_law"]),
+            change_text(largest_change(line["momentum_change"]), line["momentum_law"]),
+            change_text(largest_change(line["momentum_turn"]), line["turn_law"], angle=True))
 
 
 @dataclass
@@ -90,7 +109,7 @@ class HorizonResult:
     def to_json(self) -> dict:
         from ..versions import versions
 
-        return {"schema": "xcheck.horizon/1", "scenario": self.scenario.name, "duration": self.duration,
+        return {"schema": "xcheck.horizon/2", "scenario": self.scenario.name, "duration": self.duration,
                 "steps": list(self.steps), "reference": self.scenario.reference, "reference_note": self.reference_note,
                 "versions": versions(), "lines": [line.to_json() for line in self.lines], "left_out": self.left_out}
 
@@ -115,53 +134,12 @@ def growth_exponent(t, error) -> float | None:
     return _fit(t, error, ROUND_OFF)
 
 
-def drift_law(t, drift, steps: int | None = None) -> tuple[str | None, float | None]:
-    """Whether an energy drift is bounded or grows: the exponent ``q`` of its running maximum over windows
-    ``[T/2^(k+1), T/2^k]`` (k = 0 ... 5) against their ends; ``"bounded"`` for q < 0.2, ``"secular"`` for q >= 0.8
-    (a drift as t), else ``"grows as t^q"``; ``"round-off"`` where it stays below the round-off of the run's
-    ``steps`` (:data:`DRIFT_ROUND_OFF` a step, 1e-12 at least; without ``steps``, that of a million): whatever its
-    growth, nothing the method does; ``"not kept"`` where it reaches :data:`NOT_KEPT`. (None, None) without
-    samples."""
-    t, drift = np.asarray(t, dtype=float), np.abs(np.asarray(drift, dtype=float))
-    if not len(t):
-        return None, None
-    if np.max(drift) <= max(1e-12, DRIFT_ROUND_OFF * (steps if steps else 1e6)):
-        return "round-off", None
-    if np.max(drift) >= NOT_KEPT:  # the invariant is gone, or doubled: its running maximum stalls, not bounded
-        return "not kept", None
-    ends, peaks = [], []
-    for k in range(6):
-        lo, hi = t[-1] / 2 ** (k + 1), t[-1] / 2 ** k
-        window = drift[(t > lo) & (t <= hi)]
-        if len(window):
-            ends.append(hi)
-            peaks.append(max(float(window.max()), 1e-300))
-    if len(ends) < 3:
-        return None, None
-    q = float(np.polyfit(np.log(ends), np.log(peaks), 1)[0])
-    return ("bounded" if q < 0.2 else "secular" if q >= 0.8 else f"grows as t^{q:.2f}"), q
-
-
 def time_within(t, error, bound: float) -> float:
     """The last time before the error first exceeds ``bound`` (``t[-1]`` where it never does, 0 at once)."""
     over = np.nonzero(np.asarray(error) > bound)[0]
     if not len(over):
         return float(t[-1])
     return 0.0 if over[0] == 0 else float(t[over[0] - 1])
-
-
-def _energy(ctx, q, omega) -> np.ndarray | None:
-    """The energy the motion keeps (kinetic, and a top's potential in its own gravity), or None where a torque
-    works on the body (or a gyrostat's wheels share it)."""
-    body = ctx.body
-    if getattr(body, "wheels", ()):
-        return None
-    kinetic = 0.5 * np.einsum("ni,ij,nj->n", omega, np.asarray(ctx.inertia, dtype=float), omega)
-    if ctx.torque is None:
-        return kinetic
-    if ctx.own is not None and ctx.torque is ctx.own and getattr(body, "joint", "free") == "ball":
-        return kinetic - body.mass * quat_rotate(q, np.asarray(body.centre, dtype=float)) @ np.asarray(body.gravity)
-    return None
 
 
 #: The steps of a horizon study when none are given: the scenario's three coarsest quick steps.
@@ -267,14 +245,6 @@ def horizon_lines(long: Scenario, plan, progress=None, ref=None) -> list:
     return lines
 
 
-def _momentum(ctx, q, omega) -> np.ndarray | None:
-    """The world angular momentum's angle from its start [rad], where the motion keeps it (torque free, no wheels)."""
-    if ctx.torque is not None or getattr(ctx.body, "wheels", ()):
-        return None
-    H = quat_rotate(q, omega @ np.asarray(ctx.inertia, dtype=float).T)
-    return np.arctan2(np.linalg.norm(np.cross(H, H[0]), axis=1), H @ H[0])
-
-
 def run_horizon(scenario: Scenario, *, duration: float, steps, methods=None, progress=None,
                 pool=None) -> HorizonResult:
     """Every method of ``methods`` (default: :func:`horizon_methods`) at each of ``steps`` over ``duration`` s, against
@@ -357,16 +327,23 @@ def _line(runner, ctx, ref, dt: float) -> HorizonLine:
     q_ref, _, mask = ref.at(traj.t[idx])
     err = np.full(len(idx), np.nan)
     err[mask] = attitude_error(traj.q[idx][mask], q_ref[mask])
-    energy = _energy(ctx, traj.q[idx], traj.omega[idx])
-    drift = None if energy is None else np.abs(energy / energy[0] - 1)
     on_log = np.isin(idx, logs)
     t_log, e_log = traj.t[idx][on_log], err[on_log]
-    law, q = (None, None) if drift is None else drift_law(t_log, drift[on_log], steps=n)
-    turned = _momentum(ctx, traj.q[idx], traj.omega[idx])
-    momentum_law = None if turned is None else drift_law(t_log, turned[on_log], steps=n)[0]
+    kept = invariant_series(ctx.inertia, traj.q[idx][on_log], traj.omega[idx][on_log], ctx.torque, t_log)
+    laws = {}
+    for key, series, angle in (("energy", kept.energy, False), ("momentum", kept.momentum, False),
+                               ("turn", kept.turn, True)):
+        law, exponent = (None, None) if series is None else drift_law(t_log, series, steps=n)
+        laws[key] = (law_text(law, exponent, largest_change(series), angle=angle), exponent)
+
+    def listed(series):
+        return None if series is None else series.tolist()
+
     return HorizonLine(runner.name, dt, "ok", t=t_log.tolist(), attitude_error=e_log.tolist(),
-                       energy_drift=None if drift is None else drift[on_log].tolist(),
-                       growth=growth_exponent(t_log, e_log), energy_law=law, energy_exponent=q,
-                       momentum_drift=None if turned is None else turned[on_log].tolist(), momentum_law=momentum_law,
+                       growth=growth_exponent(t_log, e_log), energy_change=listed(kept.energy),
+                       energy_law=laws["energy"][0], energy_exponent=laws["energy"][1],
+                       momentum_change=listed(kept.momentum), momentum_law=laws["momentum"][0],
+                       momentum_label="L·ĝ" if kept.momentum_label == LABELS["momentum·g"] else "|L|",
+                       momentum_turn=listed(kept.turn), turn_law=laws["turn"][0],
                        within={b: time_within(traj.t[idx], err, b) for b in THRESHOLDS},
                        final_error=float(err[-1]))

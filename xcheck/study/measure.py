@@ -11,7 +11,7 @@ import numpy as np
 
 from .. import rotations as rot
 from .._jit import compiled_code_loaded
-from ..metrics import errors_against, invariant_drift
+from ..metrics import errors_against, invariant_changes
 from ..reference import ReferenceFailure
 from ..results import MethodRuns, Run
 from ..runners import RUNNERS, RunContext
@@ -151,9 +151,9 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float,
     q_ref, w_ref, mask = ref.at(traj.t)  # at the trajectory's own times (an engine's clock may round the step)
     err = (errors_against(traj, q_ref, w_ref) if mask.all() else
            errors_against(_subset(traj, mask), q_ref[mask], w_ref[mask]))
-    drift = invariant_drift(ctx.inertia, traj, ctx.torque)  # under a torque: what it conserves, if anything
-    run = Run(dt=dt, **err, energy_drift=drift["energy_drift"], momentum_drift=drift["momentum_drift"],
-              spin_drift=drift.get("spin_drift"), norm_drift=drift["norm_drift"],
+    kept = invariant_changes(ctx.inertia, traj, ctx.torque)  # under a torque: what it keeps, if anything
+    run = Run(dt=dt, **err, energy_change=kept["energy_change"], momentum_change=kept["momentum_change"],
+              momentum_turn=kept["momentum_turn"], spin_change=kept.get("spin_change"), norm_drift=kept["norm_drift"],
               wheel_speed_error=_wheel_speed_error(traj, ctx.torque, q_ref, w_ref, mask),
               wall_time=wall, steps_per_second=_steps_per_second(dt, ctx.duration, wall),
               message=traj.extras.get("clock") or "", repeats=repeats, evaluations=traj.extras.get("evaluations"), rtol=rtol)
@@ -261,7 +261,7 @@ def _subset(traj, mask):
 
 def _sample(finest, ref, ctx):
     """The finest good run sampled every PLOT_SAMPLE_DT (and its reference, errors and invariants)."""
-    from ..metrics import conserved_series, kinetic_energy, world_momentum
+    from ..invariants import invariant_series
 
     dt, traj = finest
     stride = max(1, int(round(PLOT_SAMPLE_DT / dt)))
@@ -271,20 +271,9 @@ def _sample(finest, ref, ctx):
     q = traj.q[idx]
     out = {"dt": dt, "t": t, "q": q, "omega": traj.omega[idx], "q_ref": q_ref, "omega_ref": w_ref, "ref_mask": mask,
            "attitude_error": np.where(mask, rot.attitude_error(q, q_ref), np.nan)}
-    E = kinetic_energy(ctx.inertia, out["omega"])
-    H = world_momentum(ctx.inertia, q, out["omega"])
-    out["energy_drift"] = E / E[0] - 1 if E[0] > 0 else np.zeros_like(E)
-    out["energy_label"] = "|E/E0 - 1|"
-    out["momentum_drift"] = np.linalg.norm(H - H[0], axis=1) / max(np.linalg.norm(H[0]), 1e-300)
-    out["momentum_label"] = "|H - H0| / |H0|"
-    if ctx.torque is not None:  # what the torque conserves instead, where it does (a top's gravity)
-        kept = conserved_series(ctx.inertia, q, out["omega"], ctx.torque, t)
-        if kept["energy_drift"] is not None:
-            out["energy_drift"], out["energy_label"] = kept["energy_drift"], "|ΔE| / (|T0| + |V0|), E = T + V"
-        if kept["momentum_drift"] is not None:
-            out["momentum_drift"], out["momentum_label"] = kept["momentum_drift"], (
-                "|H - H0| / |H0|, H = R (I ω + h)" if getattr(ctx.torque, "conserves_momentum", False)
-                else "|ΔH · axis| / |H0|")
+    kept = invariant_series(ctx.inertia, q, out["omega"], ctx.torque, t)  # signed; None where not kept
+    out |= {"energy_change": kept.energy, "momentum_change": kept.momentum, "momentum_turn": kept.turn,
+            "energy_label": kept.energy_label, "momentum_label": kept.momentum_label}
     if "euler" in traj.extras:
         out["euler"] = traj.extras["euler"][idx]
     if ctx.torque is not None:

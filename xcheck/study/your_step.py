@@ -6,7 +6,7 @@ Per method, the **largest attitude error over the run** [rad] (the geodesic angl
 reference's, at any of its steps) against the scenario's ``[checks] tolerance`` (1e-6 rad unless it says; ``within``
 means at most). A method that did not run at that step says why (an adaptive method takes its own steps; an engine's
 step budget, or a run that failed, says so). The JSON is :func:`your_step_answer`'s, the ``your_step`` key of a
-study's results (schema ``xcheck.convergence/2``); :func:`answer_line` is the first line a person reads."""
+study's results (schema ``xcheck.convergence/3``); :func:`answer_line` is the first line a person reads."""
 
 from __future__ import annotations
 

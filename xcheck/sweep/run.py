@@ -128,8 +128,9 @@ class SweepLog:
             self.records[r["id"]] = r
 
 
-_NUMBERS = ("dt", "attitude_error", "max_attitude_error", "omega_error", "max_omega_error", "energy_drift",
-            "momentum_drift", "norm_drift", "wall_time", "steps_per_second", "repeats", "evaluations", "rtol")
+_NUMBERS = ("dt", "attitude_error", "max_attitude_error", "omega_error", "max_omega_error", "energy_change",
+            "momentum_change", "momentum_turn", "norm_drift", "wall_time", "steps_per_second", "repeats", "evaluations",
+            "rtol")
 
 
 def _number(v) -> bool:
@@ -314,7 +315,7 @@ def _run_batched(method: str, cells: list[_Cell], steps: tuple) -> None:
 
 
 def _record(c: _Cell, methods: list[str], steps: tuple) -> dict:
-    """A cell's record: its parameters, every method's result (schema ``xcheck.convergence/2``'s method
+    """A cell's record: its parameters, every method's result (schema ``xcheck.convergence/3``'s method
     entries), the checks, whether it passed, and where its time went."""
     from ..results import MethodRuns
     from ..study import assemble
