@@ -73,7 +73,7 @@ def test_xcheck_horizon_prints_the_laws_and_writes_them(tmp_path, capsys):
     text = capsys.readouterr().out
     assert code == 0
     assert "heavy-top over 60 s" in text and "energy" in text and "L·ĝ" in text
-    assert re.search(r"lie-rkmk4 +0.0078125 .* -8.89e-09 damps ∝ t +-4.69e-08 damps ∝ t +— ", text), text
+    assert re.search(r"lie-rkmk4 +0.0078125 .* -8.89e-09 damps ∝ t +-4.68e-08 damps ∝ t +— ", text), text
     doc = json.loads(out.read_text())
     assert doc["schema"] == "xcheck.horizon/2" and doc["duration"] == 60.0 and len(doc["lines"]) == 2
     assert set(doc["lines"][0]["within"]) == {"1e-06", "0.001"}

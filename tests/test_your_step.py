@@ -149,14 +149,19 @@ def test_the_first_line_answers_at_the_models_step(models):
                                                                                         "implicitfast", True)
     for name in ("lie-rkmk4", "mujoco-implicitfast"):
         run = next(r for r in st.methods[name].runs if r.dt == 0.01)
-        assert a["methods"][name] == {"error": run.max_attitude_error, "within": run.max_attitude_error <= 1e-6}
+        assert a["methods"][name] == {"error": run.max_attitude_error, "within": run.max_attitude_error <= 1e-6,
+                                      "energy_change": run.energy_change, "momentum_change": run.momentum_change,
+                                      "momentum_turn": run.momentum_turn, "energy_law": run.energy_law,
+                                      "momentum_law": run.momentum_law, "turn_law": run.turn_law}
+    assert a["methods"]["mujoco-implicitfast"]["energy_change"] < 0 < a["methods"]["mujoco-implicitfast"]["momentum_turn"]
     assert a["methods"]["lie-rkmk4"]["within"] and not a["methods"]["mujoco-implicitfast"]["within"]
     assert a["not_run"] == {"scipy-rk45": "adaptive: it chooses its own steps (see its tolerances)"}
     line = answer_line(a)
     e = a["methods"]["mujoco-implicitfast"]["error"]
     assert line.startswith(f"at your Δt = 0.01 s (the model's <option timestep>) over {sc.duration:g} s, largest "
                            f"attitude error over the run: mujoco-implicitfast {e:.2g} rad (tolerance 1e-06: not "
-                           "within); 1 of 2 methods within, the best lie-rkmk4")
+                           "within), damps energy (")
+    assert "; 1 of 2 methods within, the best lie-rkmk4" in line
     assert study_lines(st)[1] == f"  {line}"
 
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from . import rotations as rot
 
-__all__ = ["InvariantSeries", "invariant_series", "largest_change", "drift_law", "law_text", "change_text", "NOT_KEPT",
+__all__ = ["InvariantSeries", "invariant_series", "largest_change", "drift_law", "law_text", "change_text", "law_samples", "NOT_KEPT",
            "DRIFT_ROUND_OFF", "CHANGE_KEYS", "LABELS"]
 
 #: A drift at least this large (half the energy lost or gained, an angle of 0.5 rad) is "not kept": its running maximum
@@ -48,6 +48,23 @@ class InvariantSeries:
     energy_label: str = LABELS["energy"]
     momentum_label: str = LABELS["momentum"]
 
+    def laws(self, t, steps: int, largest: dict | None = None) -> dict:
+        """Each one's law with its direction (:func:`law_text`) over the samples at times ``t`` of a run of ``steps``
+        steps: ``energy_law``, ``momentum_law``, ``turn_law`` (None where not kept), and the exponents of the first
+        two's running maxima (``energy_exponent``, ``momentum_exponent``: None where round-off or not kept). The
+        direction is the sign of the run's largest change: ``largest`` (:meth:`largest`'s, from every step of the
+        run, where the samples are fewer), else these samples'."""
+        largest = largest or self.largest()
+        out = {}
+        for key, series, change, angle in (("energy", self.energy, "energy_change", False),
+                                           ("momentum", self.momentum, "momentum_change", False),
+                                           ("turn", self.turn, "momentum_turn", True)):
+            law, exponent = (None, None) if series is None else drift_law(t, series, steps)
+            out[f"{key}_law"] = law_text(law, exponent, largest.get(change), angle=angle)
+            out[f"{key}_exponent"] = exponent
+        del out["turn_exponent"]
+        return out
+
     def largest(self) -> dict:
         """The run's numbers: ``energy_change``, ``momentum_change`` (signed) and ``momentum_turn`` [rad], each the
         largest over the run (:func:`largest_change`), None where not kept."""
@@ -62,6 +79,12 @@ def largest_change(series) -> float | None:
         return None
     series = np.asarray(series, dtype=float)
     return float(series[np.argmax(np.where(np.isnan(series), np.inf, np.abs(series)))])
+
+
+def law_samples(n: int, count: int = 48) -> np.ndarray:
+    """The indices of a run's ``n + 1`` samples a law is fitted on: the start (what every change is relative to) and
+    ``count`` logarithmically spaced from the first step to the last (each once)."""
+    return np.unique(np.concatenate([[0], np.rint(np.geomspace(1, max(n, 1), count))]).astype(np.int64))
 
 
 def invariant_series(inertia, q, omega, torque=None, t=None) -> InvariantSeries:

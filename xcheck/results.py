@@ -70,6 +70,11 @@ class Run:
     momentum_change: float | None = None
     momentum_turn: float | None = None
     spin_change: float | None = None
+    #: each one's law over the run with its direction ("gains ∝ t", "damps ∝ t^0.52", "bounded oscillation",
+    #: "round-off": :func:`xcheck.invariants.law_text`), None where not kept
+    energy_law: str | None = None
+    momentum_law: str | None = None
+    turn_law: str | None = None
     #: a gyrostat's largest wheel-speed error over the run [rad/s], relative to the body (an engine's own wheels,
     #: ours from the wheels' momentum and the body rate); None without wheels
     wheel_speed_error: float | None = None

@@ -15,14 +15,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..invariants import LABELS, change_text, drift_law, invariant_series, largest_change, law_text
+from ..invariants import LABELS, change_text, invariant_series, largest_change
 from ..rotations import attitude_error
 from ..runners import RUNNERS
 from ..scenario import Scenario
 
 __all__ = ["HorizonLine", "HorizonResult", "run_horizon", "horizon_methods", "horizon_plan", "ENGINE_STEPS",
            "default_duration", "default_steps", "within_text", "DEFAULT_STEP_COUNT",
-           "growth_exponent", "drift_law", "change_texts", "time_within", "log_indices", "THRESHOLDS", "LOG_SAMPLES", "UNIFORM_SAMPLES"]
+           "growth_exponent", "change_texts", "time_within", "log_indices", "THRESHOLDS", "LOG_SAMPLES", "UNIFORM_SAMPLES"]
 
 #: The attitude errors [rad] whose first crossing a horizon study reports.
 THRESHOLDS = (1e-6, 1e-3)
@@ -329,21 +329,18 @@ def _line(runner, ctx, ref, dt: float) -> HorizonLine:
     err[mask] = attitude_error(traj.q[idx][mask], q_ref[mask])
     on_log = np.isin(idx, logs)
     t_log, e_log = traj.t[idx][on_log], err[on_log]
-    kept = invariant_series(ctx.inertia, traj.q[idx][on_log], traj.omega[idx][on_log], ctx.torque, t_log)
-    laws = {}
-    for key, series, angle in (("energy", kept.energy, False), ("momentum", kept.momentum, False),
-                               ("turn", kept.turn, True)):
-        law, exponent = (None, None) if series is None else drift_law(t_log, series, steps=n)
-        laws[key] = (law_text(law, exponent, largest_change(series), angle=angle), exponent)
+    pick = np.concatenate([[0], idx[on_log]])  # the start: what every change is relative to
+    kept = invariant_series(ctx.inertia, traj.q[pick], traj.omega[pick], ctx.torque, traj.t[pick])
+    laws = kept.laws(traj.t[pick], n)
 
-    def listed(series):
-        return None if series is None else series.tolist()
+    def listed(series):  # at the logarithmic grid's times (the start left out)
+        return None if series is None else series[1:].tolist()
 
     return HorizonLine(runner.name, dt, "ok", t=t_log.tolist(), attitude_error=e_log.tolist(),
                        growth=growth_exponent(t_log, e_log), energy_change=listed(kept.energy),
-                       energy_law=laws["energy"][0], energy_exponent=laws["energy"][1],
-                       momentum_change=listed(kept.momentum), momentum_law=laws["momentum"][0],
+                       energy_law=laws["energy_law"], energy_exponent=laws["energy_exponent"],
+                       momentum_change=listed(kept.momentum), momentum_law=laws["momentum_law"],
                        momentum_label="L·ĝ" if kept.momentum_label == LABELS["momentum·g"] else "|L|",
-                       momentum_turn=listed(kept.turn), turn_law=laws["turn"][0],
+                       momentum_turn=listed(kept.turn), turn_law=laws["turn_law"],
                        within={b: time_within(traj.t[idx], err, b) for b in THRESHOLDS},
                        final_error=float(err[-1]))

@@ -11,6 +11,7 @@ import numpy as np
 
 from .. import rotations as rot
 from .._jit import compiled_code_loaded
+from ..invariants import CHANGE_KEYS, invariant_series, law_samples
 from ..metrics import errors_against, invariant_changes
 from ..reference import ReferenceFailure
 from ..results import MethodRuns, Run
@@ -152,7 +153,8 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float,
     err = (errors_against(traj, q_ref, w_ref) if mask.all() else
            errors_against(_subset(traj, mask), q_ref[mask], w_ref[mask]))
     kept = invariant_changes(ctx.inertia, traj, ctx.torque)  # under a torque: what it keeps, if anything
-    run = Run(dt=dt, **err, energy_change=kept["energy_change"], momentum_change=kept["momentum_change"],
+    run = Run(dt=dt, **err, **_laws(ctx, traj, kept), energy_change=kept["energy_change"],
+              momentum_change=kept["momentum_change"],
               momentum_turn=kept["momentum_turn"], spin_change=kept.get("spin_change"), norm_drift=kept["norm_drift"],
               wheel_speed_error=_wheel_speed_error(traj, ctx.torque, q_ref, w_ref, mask),
               wall_time=wall, steps_per_second=_steps_per_second(dt, ctx.duration, wall),
@@ -160,6 +162,19 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float,
     if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
         return Run.failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall, rtol)
     return run
+
+
+def _laws(ctx: RunContext, traj, kept: dict) -> dict:
+    """The invariants' laws over a run with their directions (:meth:`~xcheck.invariants.InvariantSeries.laws`),
+    fitted on :func:`~xcheck.invariants.law_samples` (49 samples: a run's cost is its steps, not these), signed by
+    the run's largest changes ``kept``; {} where the motion keeps none."""
+    if all(kept[key] is None for key in CHANGE_KEYS):
+        return {}
+    n = len(traj.t) - 1
+    idx = law_samples(n)
+    laws = invariant_series(ctx.inertia, traj.q[idx], traj.omega[idx], ctx.torque, traj.t[idx]).laws(traj.t[idx], n,
+                                                                                                      kept)
+    return {key: laws[key] for key in ("energy_law", "momentum_law", "turn_law")}
 
 
 def _wheel_speed_error(traj, torque, q_ref, w_ref, mask) -> float | None:
@@ -261,7 +276,6 @@ def _subset(traj, mask):
 
 def _sample(finest, ref, ctx):
     """The finest good run sampled every PLOT_SAMPLE_DT (and its reference, errors and invariants)."""
-    from ..invariants import invariant_series
 
     dt, traj = finest
     stride = max(1, int(round(PLOT_SAMPLE_DT / dt)))

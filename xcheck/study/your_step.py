@@ -14,7 +14,7 @@ from ..defaults import DEFAULT_CHECKS
 from ..runners import RUNNERS
 from ..trajectory import same_step, step_label
 
-__all__ = ["your_step_answer", "answer_line"]
+__all__ = ["your_step_answer", "answer_line", "drift_words", "INVARIANT_KEYS"]
 
 
 def your_step_answer(scenario, steps, methods: dict, over_budget: dict) -> dict | None:
@@ -43,8 +43,37 @@ def your_step_answer(scenario, steps, methods: dict, over_budget: dict) -> dict 
         elif not run.ok or run.max_attitude_error is None:
             out["not_run"][name] = run.message or run.status
         else:
-            out["methods"][name] = {"error": run.max_attitude_error, "within": run.max_attitude_error <= tolerance}
+            out["methods"][name] = {"error": run.max_attitude_error, "within": run.max_attitude_error <= tolerance,
+                                    **{key: getattr(run, key) for key in INVARIANT_KEYS}}
     return out
+
+
+#: What each method's entry carries of its run at the user's step beside its error: the invariants' largest signed
+#: changes and their laws (:mod:`xcheck.invariants`; None where the motion does not keep them)
+INVARIANT_KEYS = ("energy_change", "momentum_change", "momentum_turn", "energy_law", "momentum_law", "turn_law")
+
+
+def drift_words(entry: dict) -> str | None:
+    """Which way a method's run drifts, in words: ``gains energy (+4.0e-02) and |L| (+2.0e-02) ∝ t``, ``damps energy
+    (-3.8e-02), keeps |L| to round-off``; None where neither is kept."""
+    parts, laws = [], []
+    for key, law_key, what in (("energy_change", "energy_law", "energy"), ("momentum_change", "momentum_law", "|L|")):
+        change, law = entry.get(key), entry.get(law_key) or ""
+        if change is None:
+            continue
+        if law == "round-off":
+            parts.append(f"keeps {what} to round-off ({change:+.1e})")
+        elif law == "bounded oscillation":
+            parts.append(f"{what} oscillates within {change:+.1e}")
+        else:
+            parts.append(f"{'gains' if change > 0 else 'damps'} {what} ({change:+.1e})")
+            laws.append(law.split(" ", 1)[1] if law.startswith(("gains ", "damps ")) else law)
+    if not parts:
+        return None
+    if len(parts) == 2 and parts[0].split()[0] == parts[1].split()[0] in ("gains", "damps"):  # one verb for both
+        parts = [f"{parts[0]} and {parts[1].split(' ', 1)[1]}"]
+    law = laws[0] if laws and len(set(laws)) == 1 else None
+    return ", ".join(parts) + (f" {law}" if law else "")
 
 
 def _e(x: float) -> str:
@@ -68,7 +97,9 @@ def answer_line(answer: dict | None) -> str | None:
     first = own if own in ran or own in answer["not_run"] else next(iter(ran), None)
     if first in ran:
         r = ran[first]
-        parts.append(f"{first} {_e(r['error'])} rad (tolerance {tol:g}: {'within' if r['within'] else 'not within'})")
+        drift = drift_words(r)
+        parts.append(f"{first} {_e(r['error'])} rad (tolerance {tol:g}: {'within' if r['within'] else 'not within'})"
+                     + (f", {drift}" if drift else ""))
     elif first is not None:
         parts.append(f"{first} not run at it ({answer['not_run'][first]})")
     within = [n for n, r in ran.items() if r["within"]]
