@@ -55,7 +55,8 @@ def markdown_tables(md: str):
     for i, line in enumerate(lines[:-1]):
         if line.startswith("| ") and lines[i + 1].startswith("|---"):
             # a header cell may be a link (the front matrix's scenarios): its text is what HTML shows
-            header = [re.sub(r"^\[(.*)\]\(#[^)]*\)$", r"\1", h.strip()) for h in line.strip("|").split(" | ")]
+            header = [re.sub(r"^\[(.*)\]\(#[^)]*\)$", r"\1", h.strip()).replace("\\|", "|")
+                      for h in line.strip("|").split(" | ")]
             rows = 1
             while i + 2 + rows - 1 < len(lines) and lines[i + 2 + rows - 1].startswith("| "):
                 rows += 1
@@ -79,7 +80,8 @@ def test_markdown_and_html_show_the_same_tables_and_figures(report):
     # front table, checks, methods, what a tolerance costs, throughput
     assert len(parser.tables) == 5
     assert markdown_tables(md) == parser.tables
-    assert parser.tables[2]["header"] == ["method", "expected", "observed", "1/8 s", "1/16 s", "1/32 s", "steps/s"]
+    assert parser.tables[2]["header"] == ["method", "expected", "observed", "1/8 s", "1/16 s", "1/32 s", "steps/s",
+                                          "consistent", "accurate at its finest step", "energy", "|L|", "L turned"]
     assert parser.tables[2]["rows"] == 4  # header + 3 methods
     assert parser.tables[3]["header"] == ["method", "within 1e-03 rad", "within 1e-06 rad", "within 1e-09 rad"]
     assert parser.tables[3]["rows"] == 4
@@ -94,7 +96,7 @@ def test_emitters_escape_text(tmp_path):
               Table(["h|1", "h2"], [[Cell("1|2", "fail", title="it's <bad>"), "plain"]])]
     md = to_markdown(blocks)
     assert "## a <b> & c — ✅ ok" in md and "❌ **FAILED**" in md and "x|y `<code>`❌" in md
-    assert "| h|1 | h2 |" in md and "| ❌ 1\\|2 | plain |" in md
+    assert "| h\\|1 | h2 |" in md and "| ❌ 1\\|2 | plain |" in md
     page = to_html(blocks, tmp_path, title="t")
     assert "<h2 id='x'>a &lt;b&gt; &amp; c — <span class='verdict pass'>ok</span></h2>" in page
     assert "<code>&lt;code&gt;</code><span class='chip fail'></span>" in page

@@ -180,6 +180,11 @@ class MethodResult:
     local_orders: list = field(default_factory=list)
     verdict: str = "info"
     within: dict = field(default_factory=dict)  # tolerance key ("1e-06") -> metrics.StepWithin
+    #: the two statements of its row (:mod:`xcheck.study.statements`): whether it behaves as its theory says
+    #: ("yes", "no", "undecided", ...), and whether it is within the tolerance at the step named (a dict; None
+    #: without a completed run)
+    consistent: str = "—"
+    accurate: dict | None = None
 
     @property
     def status(self) -> str:
@@ -210,7 +215,8 @@ class MethodResult:
     def to_json(self) -> dict:
         return {"engine": self.engine, "expected_order": self.expected_order, "observed_order": self.observed_order,
                 "order_note": self.order_note, "local_orders": self.local_orders, "status": self.status,
-                "runs": [r.to_json() for r in self.runs], "verdict": self.verdict,
+                "runs": [r.to_json() for r in self.runs], "verdict": self.verdict, "consistent": self.consistent,
+                "accurate": self.accurate,
                 "largest_step_within": {k: w.dt for k, w in self.within.items()},
                 **({"loosest_tolerance_within": {k: w.rtol for k, w in self.within.items()}} if self.adaptive else {}),
                 "cost_within": {k: w.to_json() for k, w in self.within.items()}}

@@ -53,10 +53,29 @@ def method_line(study, method: str) -> str:
         parts.append(f"at Δt = {step_label(f.dt)} s attitude error {_num(f.attitude_error)} rad (largest over the run "
                      f"{_num(f.max_attitude_error)} rad)")
     parts.append(f"observed order {_num(m.observed_order)}" + (f" ({m.order_note})" if m.order_note else ""))
+    parts.append(statements_text(m))
     failed = [r for r in m.runs if not r.ok]
     if failed:
         parts.append("; ".join(f"Δt = {step_label(r.dt)} s {r.status}: {r.message}" for r in failed[:2]))
     return f"report: {method}: " + "; ".join(parts)
+
+
+def statements_text(m) -> str:
+    """A method's two statements in words (:mod:`xcheck.study.statements`): ``consistent: yes; accurate at 0.01 s:
+    NO (1.9e-01 rad, tolerance 1e-06 rad); there energy -3.8e-02 ∝ t, |L| -1.9e-02 ∝ t, L turned 5.6e-03 rad``."""
+    from .study.statements import invariants_text, where_text
+
+    a = m.accurate
+    out = f"consistent: {m.consistent}"
+    if a is None:
+        return out + "; accurate: — (no completed run)"
+    what = f"{a['error']:.2g} rad" if a.get("error") is not None else a.get("status", "failed")
+    out += (f"; accurate at {where_text(a)}{' (yours)' if a['yours'] else ''}: {'yes' if a['within'] else 'NO'} "
+            f"({what}, tolerance {a['tolerance']:g} rad)")
+    energy, size, turn = invariants_text(a)
+    kept = [f"{name} {text}" for name, text in (("energy", energy), ("|L|", size)) if text != "—"]
+    kept += [f"L turned {turn} rad"] if turn != "—" else []
+    return out + (f"; there {', '.join(kept)}" if kept else "")
 
 
 def check_message(study, method: str, kind: str) -> str | None:

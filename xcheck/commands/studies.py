@@ -52,18 +52,7 @@ def study_lines(st) -> list[str]:
         lines.append(f"  {answer_line(answer)}")
     if st.reference_check:
         lines.append(f"  reference: {st.reference_check['text']}")
-    width = max([22, *map(len, st.methods)])  # the engines' longest names (drake-semi-explicit-euler) fit
-    yours = answer is not None and answer["studied"]
-    at = f"at {step_label(answer['dt'])} s" if yours else ""  # the largest error over the run at the user's step
-    lines.append(f"  {'method':{width}s} {'expected':>8s} {'observed':>8s} {'finest error':>13s}"
-                 + (f" {at:>13s}" if yours else "") + "  status")
-    for name, m in st.methods.items():
-        obs = f"{m.observed_order:.2f}" if m.observed_order is not None else "—"
-        exp = m.expected_order if m.expected_order is not None else "adaptive"
-        err_text = "—" if m.finest is None else format(m.finest.attitude_error, ".2e")
-        mine = answer["methods"].get(name) if yours else None
-        mine_text = "" if not yours else f" {format(mine['error'], '.2e') if mine else '—':>13s}"
-        lines.append(f"  {name:{width}s} {exp!s:>8s} {obs:>8s} {err_text:>13s}{mine_text}  {m.status_text}")
+    lines += method_table(st)
     lines += [f"  {line}" for line in left_out_lines(st)]
     if st.files:
         from .score import file_lines
@@ -79,6 +68,41 @@ def study_lines(st) -> list[str]:
             lines.append(f"  {'INCONCLUSIVE' if c.inconclusive else 'FAILED'} {c.name}: {summary}{detail}")
     lines.extend(f"  INCONCLUSIVE: {why}" for why in st.inconclusive)
     return lines
+
+
+def method_table(st) -> list[str]:
+    """One row per method, its two statements apart (:mod:`xcheck.study.statements`): the orders, its finest error
+    and its step, its largest error at the user's step, the invariants there (signed), whether it behaves as its
+    theory says (consistent) and whether it is within the tolerance (accurate), with the step where rows differ."""
+    from ..study.statements import accurate_text, invariants_text, where_text
+    from ..trajectory import step_label
+
+    answer = st.your_step
+    judged = {name: m.accurate for name, m in st.methods.items()}
+    places = [where_text(a) for a in judged.values() if a is not None]
+    usual = max(set(places), key=places.count) if places else None  # the step most rows are judged at
+    tol = next((a["tolerance"] for a in judged.values() if a is not None), None)
+    yours = answer is not None and answer["studied"]
+    at = f"at {step_label(answer['dt'])} s" if yours else "at the finest step"
+    width = max([22, *map(len, st.methods)])  # the engines' longest names (drake-semi-explicit-euler) fit
+    out = [f"  consistent: the order and invariants its theory gives; accurate: its largest attitude error over the run "
+           f"within {tol if tol is not None else '—'} rad {at}; invariants there: the largest relative change over "
+           "the run (+ gained, - damped) and its growth, and the angle [rad] L's direction turned"]
+    out.append(f"  {'method':{width}s} {'expected':>8s} {'observed':>8s}  {'finest error':<24s} {'energy':<18s} "
+               f"{'|L|':<18s} {'L turned':>8s}  {'consistent':<16s} accurate {at}")
+    for name, m in st.methods.items():
+        obs = f"{m.observed_order:.2f}" if m.observed_order is not None else "—"
+        exp = m.expected_order if m.expected_order is not None else "adaptive"
+        f = m.finest
+        finest = "—" if f is None else f"{f.attitude_error:.2e} at " + (
+            f"rtol {f.rtol:.0e}" if f.rtol is not None else f"{step_label(f.dt)} s")
+        a = m.accurate
+        energy, size, turn = invariants_text(a)
+        consistent = m.consistent + ("" if m.status == "ok" or f is None else f", {m.status_text}")
+        accurate = accurate_text(a, show_step=a is not None and where_text(a) != usual)
+        out.append(f"  {name:{width}s} {exp!s:>8s} {obs:>8s}  {finest:<24s} {energy:<18s} {size:<18s} {turn:>8s}  "
+                   f"{consistent:<16s} {accurate}")
+    return out
 
 
 @dataclass

@@ -96,7 +96,8 @@ def to_markdown(blocks) -> str:
             out += [f"{_MARK.get(b.cls, '')} **{b.text}**".strip(), ""]
         elif isinstance(b, Table):
             links = b.header_links or [None] * len(b.header)
-            out.append("| " + " | ".join(f"[{h}](#{a})" if a else h for h, a in zip(b.header, links)) + " |")
+            heads = [h.replace("|", "\\|") for h in b.header]  # a header's bar ("|L|") would split its cell
+            out.append("| " + " | ".join(f"[{h}](#{a})" if a else h for h, a in zip(heads, links)) + " |")
             out.append("|" + "---|" * len(b.header))
             for row in b.rows:
                 cells = []

@@ -311,12 +311,13 @@ def _convergence_and_cost(data, colors):
     return fig
 
 
-def side_legend(ax, handles=None, labels=None, *, loc: str = "center") -> None:
+def side_legend(ax, handles=None, labels=None, *, loc: str = "center", down_to=None) -> None:
     """A legend to the right of ``ax`` (beside the figure's fixed right margin, :func:`subplots`), its entries
     centred on the axes' height (``loc="center"``) or from its top (``"upper"``): each a short line in the handle's
     style with its marker, and its label, placed in the figure's coordinates. matplotlib's own legend lays each
     entry out in boxes that it measures at every drawing: a third of a report's figure time, where these are a few
-    lines and texts placed once. Rows shrink to fit where there are more than the height holds."""
+    lines and texts placed once. Rows shrink to fit where there are more than the height holds: the height of ``ax``
+    and down to the bottom of the axes ``down_to`` (panels stacked below it) where given."""
     from matplotlib.lines import Line2D
 
     if handles is None:
@@ -328,6 +329,8 @@ def side_legend(ax, handles=None, labels=None, *, loc: str = "center") -> None:
     size = size if isinstance(size, (int, float)) else 7.0
     width, height = fig.get_size_inches()
     box = ax.get_position()
+    if down_to is not None:
+        box = matplotlib.transforms.Bbox.from_extents(box.x0, down_to.get_position().y0, box.x1, box.y1)
     pitch = min(1.3 * size / 72 / height, box.height / len(handles))  # figure fraction a row
     x0 = box.x1 + 0.01 * box.width + 0.4 * size / 72 / width
     x1 = x0 + 2.0 * size / 72 / width
@@ -411,7 +414,7 @@ def _errors_in_time(series, colors, torque_free: bool):
         if turn:
             axes[3].set_ylabel("L's direction\nturned [rad]", fontsize=8)
     axes[-1].set_xlabel("t [s]")
-    side_legend(axes[0], loc="upper")
+    side_legend(axes[0], loc="upper", down_to=axes[-1])  # one method a row, beside every panel
     return fig
 
 

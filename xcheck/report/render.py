@@ -20,6 +20,7 @@ from ..base.files import (
     write_trajectory_csv,
 )
 from ..results import outcome_of
+from ..study.statements import accurate_text, invariants_text, where_text
 from ..trajectory import step_label
 from ..versions import machine, versions
 from .document import Cell, Contents, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
@@ -308,6 +309,17 @@ def _front_cell(st, name) -> Cell:
     return Cell(f"{text} · {fmt(finest.attitude_error if finest else None, '.1e')}", m.verdict)
 
 
+def _statement_cells(m, usual: str | None) -> list:
+    """A method's two statements and its invariants at the step its accuracy is judged at (the step said where it
+    is not ``usual``, the step of most rows), as table cells."""
+    a = m.accurate
+    consistent = {"yes": "pass", "no": "fail", "known finding": "expected", "expected to fail": "expected"}
+    accurate = accurate_text(a, show_step=a is not None and where_text(a) != usual)
+    return [Cell(m.consistent, consistent.get(m.consistent, "")),
+            Cell(accurate, "" if a is None else "pass" if a["within"] else "fail"),
+            *(Cell(text, num=True) for text in invariants_text(a))]
+
+
 def _answer_runs(st) -> list:
     """The answer at the user's step as the text runs that lead a scenario's words (none without a step of theirs)."""
     from ..study.your_step import answer_line
@@ -360,6 +372,8 @@ def _scenario_blocks(st, figs) -> list:
                         + (" (shown)" if failed or undecided else " (click to show)")))
     rows = []
     fixed = {n: m for n, m in st.methods.items() if not m.adaptive}
+    places = [where_text(m.accurate) for m in fixed.values() if m.accurate]
+    usual = max(set(places), key=places.count) if places else None
     adaptive = {n: m for n, m in st.methods.items() if m.adaptive}
     for name, m in fixed.items():
         by_dt = {r.dt: r for r in m.runs}
@@ -368,13 +382,19 @@ def _scenario_blocks(st, figs) -> list:
         rows.append([Cell(name, m.verdict), "adaptive" if m.expected_order is None else str(m.expected_order),
                      Cell(fmt(m.observed_order, ".2f"), num=True),
                      *(Cell("—", title=f"not run: {why}") if d in left else _run_cell(by_dt.get(d)) for d in st.steps),
-                     Cell(f"{max(rates):.3g}" if rates else "", num=True)])
-    blocks.append(Para("Every method's attitude error [rad] at the end of the run, at each step Δt [s]; the "
-                       "orders expected and observed; its best speed [steps/s].", small=True))
+                     Cell(f"{max(rates):.3g}" if rates else "", num=True), *_statement_cells(m, usual)])
     yours = st.your_step["dt"] if st.your_step and st.your_step["studied"] else None
+    at = f"at {step_label(yours)} s" if yours else "at its finest step"
+    tol = next((m.accurate["tolerance"] for m in fixed.values() if m.accurate), None)
+    blocks.append(Para("Every method's attitude error [rad] at the end of the run, at each step Δt [s]; the "
+                       "orders expected and observed; its best speed [steps/s]. Then its two statements: consistent "
+                       "(the order and invariants its theory gives) and accurate (its largest attitude error over the "
+                       f"run within {fmt(tol, 'g')} rad {at}), and the invariants there: the energy's and |L|'s largest "
+                       "relative change over the run (+ gained, − damped) and its growth, the angle [rad] L's "
+                       "direction turned.", small=True))
     blocks.append(Table(["method", "expected", "observed",
-                         *(f"{step_label(d)} s" + (" (yours)" if d == yours else "") for d in st.steps), "steps/s"],
-                        rows))
+                         *(f"{step_label(d)} s" + (" (yours)" if d == yours else "") for d in st.steps), "steps/s",
+                         "consistent", f"accurate {at}", "energy", "|L|", "L turned"], rows))
     if adaptive:
         tols = sorted({r.rtol for m in adaptive.values() for r in m.runs}, reverse=True)
         out_step = step_label(next(iter(adaptive.values())).runs[0].dt)

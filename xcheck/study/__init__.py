@@ -31,6 +31,7 @@ from .checks import adaptive_note, planned_checks, qualify, study_checks, study_
 from .executor import map_tasks, prefer_here
 from .files import score_trajectories
 from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_methods
+from .statements import accuracy, consistency
 from .your_step import your_step_answer
 
 __all__ = ["run_study", "run_studies", "assemble", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows",
@@ -398,13 +399,15 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
     reasons = [] if reference_error else qualify(scenario, methods, checks, reference=used,
                                                  reference_check=reference_check, comparisons=comparisons,
                                                  hint=lambda: _steady_hint(scenario))
+    answer = your_step_answer(scenario, steps, methods, over_budget)
     for m in methods.values():
         m.verdict = verdict(m.name, checks)
+        m.consistent, m.accurate = consistency(m.name, checks), accuracy(m, answer, scenario.checks.get("tolerance"))
     return StudyResult(scenario=scenario, steps=list(steps), methods=methods, checks=checks, order_floor=floor,
                        quick=quick, series=series, comparisons=comparisons, reference_check=reference_check,
                        inconclusive=reasons, not_run={**{m: why for m, why in not_run(scenario).items()
                                                          if m not in methods and _offered(RUNNERS[m])}, **broken},
-                       over_budget=over_budget, your_step=your_step_answer(scenario, steps, methods, over_budget))
+                       over_budget=over_budget, your_step=answer)
 
 
 def _budget_undecided(checks: list, over_budget: dict) -> list:

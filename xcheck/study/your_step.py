@@ -54,26 +54,24 @@ INVARIANT_KEYS = ("energy_change", "momentum_change", "momentum_turn", "energy_l
 
 
 def drift_words(entry: dict) -> str | None:
-    """Which way a method's run drifts, in words: ``gains energy (+4.0e-02) and |L| (+2.0e-02) ∝ t``, ``damps energy
-    (-3.8e-02), keeps |L| to round-off``; None where neither is kept."""
-    parts, laws = [], []
+    """Which way a method's run drifts, in words: ``gains energy (+4.0e-02) and |L| (+2.0e-02) ∝ t``, ``keeps
+    energy (-6.0e-15) and |L| (-3.0e-15) to round-off``, ``damps energy (-3.8e-02) ∝ t, keeps |L| (...) to round-off``;
+    None where neither is kept."""
+    groups = {}  # (verb, tail) -> ["energy (+4.0e-02)", ...], in order
     for key, law_key, what in (("energy_change", "energy_law", "energy"), ("momentum_change", "momentum_law", "|L|")):
         change, law = entry.get(key), entry.get(law_key) or ""
         if change is None:
             continue
         if law == "round-off":
-            parts.append(f"keeps {what} to round-off ({change:+.1e})")
+            verb, tail = "keeps", "to round-off"
         elif law == "bounded oscillation":
-            parts.append(f"{what} oscillates within {change:+.1e}")
+            verb, tail = "keeps", "within a bounded oscillation"
         else:
-            parts.append(f"{'gains' if change > 0 else 'damps'} {what} ({change:+.1e})")
-            laws.append(law.split(" ", 1)[1] if law.startswith(("gains ", "damps ")) else law)
-    if not parts:
-        return None
-    if len(parts) == 2 and parts[0].split()[0] == parts[1].split()[0] in ("gains", "damps"):  # one verb for both
-        parts = [f"{parts[0]} and {parts[1].split(' ', 1)[1]}"]
-    law = laws[0] if laws and len(set(laws)) == 1 else None
-    return ", ".join(parts) + (f" {law}" if law else "")
+            verb = "gains" if change > 0 else "damps"
+            tail = law.split(" ", 1)[1] if law.startswith(("gains ", "damps ")) else law
+        groups.setdefault((verb, tail), []).append(f"{what} ({change:+.1e})")
+    return ", ".join(f"{verb} {' and '.join(items)}" + (f" {tail}" if tail else "")
+                     for (verb, tail), items in groups.items()) or None
 
 
 def _e(x: float) -> str:

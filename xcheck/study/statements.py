@@ -1,0 +1,103 @@
+"""Two statements per method, never one word for both (issue 60): whether it is **consistent** — behaves as its theory
+says: it completes at its finest step, shows its order, keeps what it should — and whether it is **accurate** — its
+largest attitude error over the run is within the user's tolerance at the step the row names (the user's own step where
+the study ran it, else the method's finest). A first-order method can be perfectly consistent and 0.2 rad off at the
+user's step: the row says both, and no row says a bare "ok" beside an error above the tolerance.
+
+``consistent`` is one of :data:`CONSISTENT` (from the method's checks of kinds :data:`THEORY`); ``accurate`` a dict:
+``dt`` [s] (or an adaptive method's tightest ``rtol``), ``yours`` (the user's step), ``error`` [rad], ``tolerance``
+[rad], ``within`` (bool), and the run's invariants there (:mod:`xcheck.invariants`). Both are in the JSON of every
+method (schema ``xcheck.convergence/3``), the terminal's table and the report's."""
+
+from __future__ import annotations
+
+from ..defaults import DEFAULT_CHECKS
+from ..trajectory import same_step, step_label
+
+__all__ = ["consistency", "accuracy", "CONSISTENT", "THEORY", "short_law", "where_text", "accurate_text", "invariants_text"]
+
+#: The checks that say whether a method behaves as its theory says (the rest judge accuracy: final-error, agreement).
+THEORY = ("runs", "order", "invariants", "expected-failure")
+#: What ``consistent`` can say: its checks of :data:`THEORY` passed, one failed, one could not decide, a known finding
+#: of its engine explains the failure, the scenario expects it to fail, or there is nothing to check (an adaptive
+#: method has no order).
+CONSISTENT = ("yes", "no", "undecided", "known finding", "expected to fail", "—")
+
+
+def consistency(method: str, checks) -> str:
+    """Whether ``method`` behaves as its theory says, from its ``checks`` of kinds :data:`THEORY` (see
+    :data:`CONSISTENT`)."""
+    related = [c for c in checks if c.method == method and c.kind in THEORY]
+    if any(c.kind == "expected-failure" for c in related):
+        return "expected to fail"
+    if any(c.failed and not c.known for c in related):
+        return "no"
+    if any(c.known for c in related):
+        return "known finding"
+    if any(c.inconclusive for c in related):
+        return "undecided"
+    return "yes" if related else "—"
+
+
+def accuracy(m, your_step: dict | None, tolerance: float | None = None) -> dict | None:
+    """Whether method ``m`` (a :class:`~xcheck.results.MethodResult`) is within the tolerance at the user's step
+    (``your_step``: :func:`~xcheck.study.your_step.your_step_answer`'s, where the study ran it) or else at its finest
+    run; None without a completed run there. ``tolerance`` [rad]: ``your_step``'s, else :data:`DEFAULT_CHECKS`'s."""
+    tol = float(tolerance if tolerance is not None else
+                your_step["tolerance"] if your_step else DEFAULT_CHECKS["tolerance"])
+    run, yours = None, False
+    if your_step and your_step["studied"] and not m.adaptive:
+        run = next((r for r in m.runs if same_step(r.dt, your_step["dt"])), None)
+        yours = run is not None
+        if run is not None and (not run.ok or run.max_attitude_error is None):
+            return {"dt": run.dt, "yours": True, "error": None, "tolerance": tol, "within": False,
+                    "status": run.status}
+    run = run or m.finest
+    if run is None or run.max_attitude_error is None:
+        return None
+    out = {"dt": run.dt, "yours": yours, "error": run.max_attitude_error, "tolerance": tol,
+           "within": run.max_attitude_error <= tol}
+    if run.rtol is not None:
+        out["rtol"] = run.rtol
+    for key in ("energy_change", "momentum_change", "momentum_turn", "energy_law", "momentum_law", "turn_law"):
+        out[key] = getattr(run, key)
+    return out
+
+
+def short_law(law: str | None) -> str:
+    """A law of :func:`xcheck.invariants.law_text` for a table cell beside its signed number (which says the
+    direction): ``∝ t``, ``∝ t^0.46``, ``bounded``, ``round-off``, ``gone`` (damped away), ``runaway``."""
+    if not law:
+        return ""
+    if law.startswith(("gains ∝", "damps ∝", "turns ∝")):
+        return law.split(" ", 1)[1]
+    return {"bounded oscillation": "bounded", "round-off": "round-off"}.get(
+        law, "gone" if law.startswith("damped away") else "runaway" if law.startswith("gained") else law.split(" (")[0])
+
+
+def where_text(a: dict) -> str:
+    """The step a row's accuracy is judged at: ``0.01 s`` or an adaptive method's ``rtol 1e-10``."""
+    return f"rtol {a['rtol']:.0e}" if a.get("rtol") is not None else f"{step_label(a['dt'])} s"
+
+
+def accurate_text(a: dict | None, *, show_step: bool) -> str:
+    """The accuracy statement of a row: ``yes (2.5e-09)``, ``NO (1.9e-01)``, ``NO (failed)``; with ``show_step`` (rows
+    judged at different steps) ``NO (1.9e-01 at 1/4096 s)``; ``—`` without a completed run."""
+    if a is None:
+        return "—"
+    what = a["status"] if a.get("error") is None else f"{a['error']:.1e}"
+    at = f" at {where_text(a)}" if show_step else ""
+    return f"{'yes' if a['within'] else 'NO'} ({what}{at})"
+
+
+def invariants_text(a: dict | None) -> tuple[str, str, str]:
+    """A row's energy, |L| and L-turn cells at its accuracy's step: ``+4.0e-02 ∝ t``, ``-2.3e-11 round-off``,
+    ``7.1e-03``; ``—`` where not kept."""
+    if a is None or a.get("error") is None:
+        return "—", "—", "—"
+    cells = []
+    for key, law in (("energy_change", "energy_law"), ("momentum_change", "momentum_law")):
+        v = a.get(key)
+        cells.append("—" if v is None else f"{v:+.1e} {short_law(a.get(law))}".rstrip())
+    turn = a.get("momentum_turn")
+    return cells[0], cells[1], "—" if turn is None else f"{turn:.1e}"
