@@ -172,3 +172,15 @@ def test_no_row_says_ok_beside_an_error_above_the_tolerance(box_study):
     euler = rows["mujoco-euler"].split()
     assert euler[7:9] == ["+4.0e-02", "∝"] and euler[10:12] == ["+2.0e-02", "∝"]  # gains, as t
     assert "there energy -3.8e-02 ∝ t, |L| -1.9e-02 ∝ t" in method_line(box_study, "mujoco-implicitfast")
+
+
+def test_a_non_finite_state_is_called_a_blow_up_first():
+    """Issue 60: a run whose state became non-finite (every engine's reader, our kernels) says it blew up before
+    anything else: the trajectory ends at the last finite row."""
+    from xcheck.trajectory import until_non_finite
+
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (2, 1))  # the rows up to the first non-finite one (finite_rows': 2 of 4)
+    w = np.array([[0.0, 1.0, 0.0], [0.0, 1e200, 0.0]])
+    traj = until_non_finite(np.arange(4.0), q, w, method="m", dt=1.0)
+    assert traj.status == "failed" and len(traj.t) == 2
+    assert traj.message == "m: blew up: the state became non-finite at t = 2 s"

@@ -133,7 +133,7 @@ def until_non_finite(t, q, omega, *, method: str, dt: float, extras=None) -> "Tr
     traj = Trajectory(t=np.asarray(t)[:k], q=continuous_quaternions(q) if k else np.empty((0, 4)),
                       omega=np.asarray(omega).reshape(-1, 3), method=method, dt=float(dt), extras=extras or {})
     if k < len(t):
-        traj.status, traj.message = "failed", f"{method}: the state became non-finite at t = {t[k]:.6g} s"
+        traj.status, traj.message = "failed", f"{method}: blew up: the state became non-finite at t = {t[k]:.6g} s"
     return traj
 
 

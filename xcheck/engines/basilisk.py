@@ -199,7 +199,7 @@ def simulate(inertia, *, integrator: str, q0, omega0, dt: float, duration: float
                       dt=float(dt), extras=extras)
     if k < len(t):
         traj.status = "failed"
-        traj.message = f"{method}: the state became non-finite at t = {t[k]:.6g} s"
+        traj.message = f"{method}: blew up: the state became non-finite at t = {t[k]:.6g} s"
     return traj
 
 

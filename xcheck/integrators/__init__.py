@@ -176,8 +176,8 @@ def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, t
                         "ends at the last good step")
     elif status == kern.NONFINITE:
         traj.status = "failed"
-        traj.message = (f"{info.name}: the state became non-finite in the step from t = {steps * float(dt):.6g} s; "
-                        "the trajectory ends at the last good step")
+        traj.message = (f"{info.name}: blew up: the state became non-finite in the step from t = "
+                        f"{steps * float(dt):.6g} s; the trajectory ends at the last good step")
     elif status == kern.OVER_BUDGET:
         traj.status = "failed"
         traj.message = (f"{info.name}: the step from t = {steps * float(dt):.6g} s turns the body by more than "
