@@ -2,6 +2,7 @@
 direction change by known amounts; and a free box stepped by MuJoCo at its own 0.01 s, read here from MuJoCo's qvel
 and qpos without xcheck, where Euler gains energy and |L| and implicit / implicitfast damp both."""
 
+import json
 import re
 
 import numpy as np
@@ -184,3 +185,25 @@ def test_a_non_finite_state_is_called_a_blow_up_first():
     traj = until_non_finite(np.arange(4.0), q, w, method="m", dt=1.0)
     assert traj.status == "failed" and len(traj.t) == 2
     assert traj.message == "m: blew up: the state became non-finite at t = 2 s"
+
+
+def test_the_users_tolerance_judges_accuracy(box, tmp_path, capsys):
+    """``--tolerance`` replaces the scenario's [checks] tolerance in what 'accurate' means: at 0.5 rad MuJoCo's Euler
+    (0.2 rad off at 0.01 s) is accurate, at the default 1e-6 it is not; a tolerance that is no angle is refused, exit 2,
+    nothing written."""
+    from xcheck.cli import main
+
+    out = tmp_path / "r.json"
+    assert main(["converge", str(box), "--quick", "--duration", "10", "--methods", "lie-rkmk4,mujoco-euler",
+                 "--tolerance", "0.5",
+                 "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    a = doc["methods"]["mujoco-euler"]["accurate"]
+    assert doc["your_step"]["tolerance"] == a["tolerance"] == 0.5 and a["within"] and 0.19 < a["error"] < 0.21
+    assert "accurate at 0.01 s" in capsys.readouterr().out
+    for bad in ("abc", "0", "-1e-6", "4", "nan"):
+        assert main(["converge", str(box), f"--tolerance={bad}", "--json", str(tmp_path / "no.json")]) == 2
+        assert f"--tolerance: expected an attitude error in rad above 0 and below pi (1e-6, 0.001), got '{bad}'" in \
+            capsys.readouterr().err
+    assert main(["report", str(box), "--tolerance", "x", "--out", str(tmp_path / "rep")]) == 2
+    assert not (tmp_path / "no.json").exists() and not (tmp_path / "rep").exists()

@@ -52,6 +52,11 @@ DURATION_OPTION = (f"the run, in place of the scenario's (a model alone's: deriv
                    "the model's own step stays among the steps")
 
 
+#: ``--tolerance`` of converge and report: what "accurate" is judged against (commands.arguments.tolerance_arg)
+TOLERANCE_OPTION = ("the largest attitude error over the run [rad] a method is accurate within, at your step (the "
+                    "model's) or else its finest (default: the scenario's [checks] tolerance, 1e-6)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="xcheck", description="MuJoCo-validated rigid-body attitude cross-checker")
     parser.add_argument("--version", action="version", version=f"xcheck {__version__}")
@@ -66,6 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", help="comma-separated steps in seconds (default: the scenario's)")
     p.add_argument("--quick", action="store_true", help="the scenario's quick steps")
     p.add_argument("--duration", help=DURATION_OPTION)
+    p.add_argument("--tolerance", help=TOLERANCE_OPTION)
     p.add_argument("--json", metavar="PATH", help="write the results (schema xcheck.convergence/3)")
     p.add_argument("--out", metavar="DIR", help="write the figures into DIR")
     p.add_argument("--workers", type=int, default=None,
@@ -110,6 +116,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="reports", metavar="DIR", help="where reports go (default: ./reports)")
     p.add_argument("--quick", action="store_true", help="fewer steps, for a fast look")
     p.add_argument("--duration", help=DURATION_OPTION)
+    p.add_argument("--tolerance", help=TOLERANCE_OPTION)
     p.add_argument("--bench", action="store_true", help="also run the benchmark into the appendix")
     p.add_argument("--timings", action="store_true", help="print where the time went (phases, on stderr)")
     p.add_argument("--trajectories", action="store_true",

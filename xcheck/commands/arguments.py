@@ -3,6 +3,8 @@ comma-separated lists, methods, steps, worker counts, engines to add, MuJoCo rel
 
 from __future__ import annotations
 
+import math
+
 import os
 
 from ..base.errors import UsageError
@@ -169,16 +171,34 @@ def duration_arg(text: str) -> float:
     return value
 
 
-def user_scenario(name: str, duration: str | None = None):
-    """The scenario a command runs (:func:`~xcheck.scenario.resolve_scenario`) over the user's ``--duration``; a
-    duration the scenario's steps do not fit (past the memory a run may take, shorter than every step the file
-    writes) is a UsageError naming ``--duration``."""
+def tolerance_arg(text: str) -> float:
+    """``--tolerance``: an angle [rad] above 0 and below pi (``1e-6``, ``0.001``); else a UsageError naming it."""
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        value = math.nan
+    if not 0 < value < math.pi:
+        raise UsageError(f"--tolerance: expected an attitude error in rad above 0 and below pi (1e-6, 0.001), "
+                         f"got {text!r}")
+    return value
+
+
+def user_scenario(name: str, duration: str | None = None, tolerance: str | None = None):
+    """The scenario a command runs (:func:`~xcheck.scenario.resolve_scenario`) over the user's ``--duration``, its
+    accuracy judged against the user's ``--tolerance`` in place of its ``[checks] tolerance``; a duration the
+    scenario's steps do not fit (past the memory a run may take, shorter than every step the file writes) is a
+    UsageError naming ``--duration``."""
+    import dataclasses
+
     from ..scenario import ScenarioError, resolve_scenario
 
+    tol = None if tolerance is None else tolerance_arg(tolerance)
     if duration is None:
-        return resolve_scenario(name)
-    try:  # reading the scenario checks each of its steps over the duration (scenario.check_steps)
-        return resolve_scenario(name, duration=duration_arg(duration))
-    except ScenarioError as exc:
-        resolve_scenario(name)  # the scenario's own error, where it has one
-        raise UsageError(f"--duration {duration}: {exc}") from None
+        sc = resolve_scenario(name)
+    else:
+        try:  # reading the scenario checks each of its steps over the duration (scenario.check_steps)
+            sc = resolve_scenario(name, duration=duration_arg(duration))
+        except ScenarioError as exc:
+            resolve_scenario(name)  # the scenario's own error, where it has one
+            raise UsageError(f"--duration {duration}: {exc}") from None
+    return sc if tol is None else dataclasses.replace(sc, checks={**sc.checks, "tolerance": tol})

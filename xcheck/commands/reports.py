@@ -21,15 +21,16 @@ class ReportOutcome(Outcome):
 
 def report(*, scenarios: list[str], out: str, quick: bool, bench: bool, timings: bool, trajectories: bool,
            with_engines: str | None, workers: int | None, ctx: Context, horizon: bool = False,
-           duration: str | None = None) -> ReportOutcome:
+           duration: str | None = None, tolerance: str | None = None) -> ReportOutcome:
     """The cross-check report of ``scenarios`` (every bundled one when empty) into ``out/<stamp>/``, each over
-    ``duration`` where given (``--duration``: :func:`~xcheck.commands.arguments.user_scenario`)."""
+    ``duration`` where given, judged against ``tolerance`` (``--duration``, ``--tolerance``:
+    :func:`~xcheck.commands.arguments.user_scenario`)."""
     from ..report.build import build_report, resolve_scenarios
 
     t0 = time.perf_counter()
     add_engines(with_engines)
-    if duration is not None:  # resolved here, each over the user's duration (else while the workers start)
-        scenarios = resolve_scenarios(scenarios, resolve=lambda name: user_scenario(name, duration))
+    if duration is not None or tolerance is not None:  # resolved here (else while the workers start)
+        scenarios = resolve_scenarios(scenarios, resolve=lambda name: user_scenario(name, duration, tolerance))
     built = build_report(scenarios, out, quick=quick, workers=workers, run_bench=bench, trajectories=trajectories,
                          progress=ctx.progress(), written=ctx.written.append, started=ctx.started, horizons=horizon)
     if timings:

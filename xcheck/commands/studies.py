@@ -111,7 +111,8 @@ class StudyOutcome(Outcome):
 
 
 def converge(*, scenario: str, methods: str | None, steps: str | None, quick: bool, json: str | None,
-             out: str | None, workers: int | None, ctx: Context, duration: str | None = None) -> StudyOutcome:
+             out: str | None, workers: int | None, ctx: Context, duration: str | None = None,
+             tolerance: str | None = None) -> StudyOutcome:
     """One convergence study of ``scenario``. A study is quicker in this process than shared with workers, which
     each pay 1-1.5 s of imports and compiled-code loading before their first run, except for the methods of an
     engine whose import is costly (Basilisk's: 0.5 s more, and the longest runs). With one installed (and not left
@@ -125,15 +126,15 @@ def converge(*, scenario: str, methods: str | None, steps: str | None, quick: bo
                  for e in ENGINES.values())
     size = workers - 1 if workers and workers > 1 else (1 if workers is None and costly else 0)
     with worker_pool(size, warm=worker_modules(figures=False)) if size else nullcontext() as pool:
-        return _converge(scenario, methods, steps, quick, json, out, pool, ctx, duration)
+        return _converge(scenario, methods, steps, quick, json, out, pool, ctx, duration, tolerance)
 
 
-def _converge(name, methods, steps, quick, json, out, pool, ctx, duration=None) -> StudyOutcome:
+def _converge(name, methods, steps, quick, json, out, pool, ctx, duration=None, tolerance=None) -> StudyOutcome:
     from ..base.files import check_output_dir, check_output_file, write_json_atomic
     from ..runners import RUNNERS
     from ..study import default_methods, run_study
 
-    scenario = user_scenario(name, duration)
+    scenario = user_scenario(name, duration, tolerance)
     methods = methods_arg(methods) if methods is not None else None
     steps = steps_arg(steps, scenario) if steps is not None else None
     for m in (methods or default_methods(scenario)) if steps else ():  # an unknown name: run_study's refusal
