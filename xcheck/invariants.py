@@ -21,8 +21,8 @@ import numpy as np
 
 from . import rotations as rot
 
-__all__ = ["InvariantSeries", "invariant_series", "largest_change", "drift_law", "law_text", "change_text", "law_samples", "NOT_KEPT",
-           "DRIFT_ROUND_OFF", "CHANGE_KEYS", "LABELS"]
+__all__ = ["InvariantSeries", "invariant_series", "largest_change", "drift_law", "law_text", "change_text", "law_samples",
+           "NOT_KEPT", "DRIFT_ROUND_OFF", "CHANGE_KEYS", "LAW_KEYS", "RUN_KEYS", "LABELS"]
 
 #: A drift at least this large (half the energy lost or gained, an angle of 0.5 rad) is "not kept": its running maximum
 #: stalls there (MuJoCo's implicitfast damps 95 % of the tumbler's energy over an orbit), which is no bounded error.
@@ -31,9 +31,13 @@ NOT_KEPT = 0.5
 DRIFT_ROUND_OFF = 1e-15
 #: A run's three numbers, by JSON key, and what each is in words.
 CHANGE_KEYS = {"energy_change": "energy", "momentum_change": "|L|", "momentum_turn": "L's direction"}
+#: Their laws, by JSON key (:meth:`InvariantSeries.laws`).
+LAW_KEYS = ("energy_law", "momentum_law", "turn_law")
+#: What a run carries of its invariants, and every answer that quotes a run: the three numbers and their laws.
+RUN_KEYS = (*CHANGE_KEYS, *LAW_KEYS)
 #: What each series is, where a figure or a table names it.
 LABELS = {"energy": "ΔE / E0", "energy+V": "ΔE / (|T0| + |V0|), E = T + V", "momentum": "Δ|L| / |L0|",
-          "momentum·g": "ΔL·ĝ / |L0|", "momentum_turn": "angle (L, L0) [rad]"}
+          "momentum·g": "ΔL·ĝ / |L0|"}
 
 
 @dataclass
@@ -50,26 +54,26 @@ class InvariantSeries:
 
     def laws(self, t, steps: int, largest: dict | None = None) -> dict:
         """Each one's law with its direction (:func:`law_text`) over the samples at times ``t`` of a run of ``steps``
-        steps: ``energy_law``, ``momentum_law``, ``turn_law`` (None where not kept), and the exponents of the first
-        two's running maxima (``energy_exponent``, ``momentum_exponent``: None where round-off or not kept). The
-        direction is the sign of the run's largest change: ``largest`` (:meth:`largest`'s, from every step of the
-        run, where the samples are fewer), else these samples'."""
+        steps (:data:`LAW_KEYS`: None where not kept), and ``energy_exponent``, that of the energy's running maximum
+        (None where round-off or not kept). The direction is the sign of the run's largest change: ``largest``
+        (:meth:`largest`'s, from every step of the run, where the samples are fewer), else these samples'."""
         largest = largest or self.largest()
         out = {}
-        for key, series, change, angle in (("energy", self.energy, "energy_change", False),
-                                           ("momentum", self.momentum, "momentum_change", False),
-                                           ("turn", self.turn, "momentum_turn", True)):
+        for law_key, change_key, series in zip(LAW_KEYS, CHANGE_KEYS, self.series()):
             law, exponent = (None, None) if series is None else drift_law(t, series, steps)
-            out[f"{key}_law"] = law_text(law, exponent, largest.get(change), angle=angle)
-            out[f"{key}_exponent"] = exponent
-        del out["turn_exponent"]
+            out[law_key] = law_text(law, exponent, largest[change_key], angle=change_key == "momentum_turn")
+            if law_key == "energy_law":
+                out["energy_exponent"] = exponent
         return out
 
+    def series(self) -> tuple:
+        """The three series in the order of :data:`CHANGE_KEYS`."""
+        return self.energy, self.momentum, self.turn
+
     def largest(self) -> dict:
-        """The run's numbers: ``energy_change``, ``momentum_change`` (signed) and ``momentum_turn`` [rad], each the
-        largest over the run (:func:`largest_change`), None where not kept."""
-        return {"energy_change": largest_change(self.energy), "momentum_change": largest_change(self.momentum),
-                "momentum_turn": largest_change(self.turn)}
+        """The run's numbers (:data:`CHANGE_KEYS`): ``energy_change``, ``momentum_change`` (signed) and
+        ``momentum_turn`` [rad], each the largest over the run (:func:`largest_change`), None where not kept."""
+        return {key: largest_change(series) for key, series in zip(CHANGE_KEYS, self.series())}
 
 
 def largest_change(series) -> float | None:

@@ -42,9 +42,7 @@ def study_lines(st) -> list[str]:
     """A study as the terminal shows it: the verdict, one line per method, each failed or undecided check."""
     from ..study import left_out_lines
     from ..study.checks import check_summary
-
     from ..study.your_step import answer_line
-    from ..trajectory import step_label
 
     lines = [f"\n{st.name}: {st.outcome} (reference: {st.reference_used})"]
     answer = st.your_step
@@ -74,14 +72,12 @@ def method_table(st) -> list[str]:
     """One row per method, its two statements apart (:mod:`xcheck.study.statements`): the orders, its finest error
     and its step, its largest error at the user's step, the invariants there (signed), whether it behaves as its
     theory says (consistent) and whether it is within the tolerance (accurate), with the step where rows differ."""
-    from ..study.statements import accurate_text, invariants_text, where_text
+    from ..study.statements import accurate_text, invariants_text, usual_place, where_text
     from ..trajectory import step_label
 
     answer = st.your_step
-    judged = {name: m.accurate for name, m in st.methods.items()}
-    places = [where_text(a) for a in judged.values() if a is not None]
-    usual = max(set(places), key=places.count) if places else None  # the step most rows are judged at
-    tol = next((a["tolerance"] for a in judged.values() if a is not None), None)
+    usual = usual_place(st.methods.values())
+    tol = next((m.accurate["tolerance"] for m in st.methods.values() if m.accurate is not None), None)
     yours = answer is not None and answer["studied"]
     at = f"at {step_label(answer['dt'])} s" if yours else "at the finest step"
     width = max([22, *map(len, st.methods)])  # the engines' longest names (drake-semi-explicit-euler) fit
@@ -94,8 +90,7 @@ def method_table(st) -> list[str]:
         obs = f"{m.observed_order:.2f}" if m.observed_order is not None else "—"
         exp = m.expected_order if m.expected_order is not None else "adaptive"
         f = m.finest
-        finest = "—" if f is None else f"{f.attitude_error:.2e} at " + (
-            f"rtol {f.rtol:.0e}" if f.rtol is not None else f"{step_label(f.dt)} s")
+        finest = "—" if f is None else f"{f.attitude_error:.2e} at {where_text(f)}"
         a = m.accurate
         energy, size, turn = invariants_text(a)
         consistent = m.consistent + ("" if m.status == "ok" or f is None else f", {m.status_text}")

@@ -20,7 +20,7 @@ from ..base.files import (
     write_trajectory_csv,
 )
 from ..results import outcome_of
-from ..study.statements import accurate_text, invariants_text, where_text
+from ..study.statements import accurate_text, invariants_text, usual_place, where_text
 from ..trajectory import step_label
 from ..versions import machine, versions
 from .document import Cell, Contents, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
@@ -372,8 +372,7 @@ def _scenario_blocks(st, figs) -> list:
                         + (" (shown)" if failed or undecided else " (click to show)")))
     rows = []
     fixed = {n: m for n, m in st.methods.items() if not m.adaptive}
-    places = [where_text(m.accurate) for m in fixed.values() if m.accurate]
-    usual = max(set(places), key=places.count) if places else None
+    usual = usual_place(fixed.values())
     adaptive = {n: m for n, m in st.methods.items() if m.adaptive}
     for name, m in fixed.items():
         by_dt = {r.dt: r for r in m.runs}

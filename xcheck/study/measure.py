@@ -11,7 +11,7 @@ import numpy as np
 
 from .. import rotations as rot
 from .._jit import compiled_code_loaded
-from ..invariants import CHANGE_KEYS, invariant_series, law_samples
+from ..invariants import CHANGE_KEYS, LAW_KEYS, invariant_series, law_samples
 from ..metrics import errors_against, invariant_changes
 from ..reference import ReferenceFailure
 from ..results import MethodRuns, Run
@@ -174,7 +174,7 @@ def _laws(ctx: RunContext, traj, kept: dict) -> dict:
     idx = law_samples(n)
     laws = invariant_series(ctx.inertia, traj.q[idx], traj.omega[idx], ctx.torque, traj.t[idx]).laws(traj.t[idx], n,
                                                                                                       kept)
-    return {key: laws[key] for key in ("energy_law", "momentum_law", "turn_law")}
+    return {key: laws[key] for key in LAW_KEYS}
 
 
 def _wheel_speed_error(traj, torque, q_ref, w_ref, mask) -> float | None:

@@ -12,9 +12,11 @@ method (schema ``xcheck.convergence/3``), the terminal's table and the report's.
 from __future__ import annotations
 
 from ..defaults import DEFAULT_CHECKS
+from ..invariants import RUN_KEYS
 from ..trajectory import same_step, step_label
 
-__all__ = ["consistency", "accuracy", "CONSISTENT", "THEORY", "short_law", "where_text", "accurate_text", "invariants_text"]
+__all__ = ["consistency", "accuracy", "usual_place", "CONSISTENT", "THEORY", "short_law", "where_text", "accurate_text",
+           "invariants_text"]
 
 #: The checks that say whether a method behaves as its theory says (the rest judge accuracy: final-error, agreement).
 THEORY = ("runs", "order", "invariants", "expected-failure")
@@ -41,27 +43,31 @@ def consistency(method: str, checks) -> str:
 
 def accuracy(m, your_step: dict | None, tolerance: float | None = None) -> dict | None:
     """Whether method ``m`` (a :class:`~xcheck.results.MethodResult`) is within the tolerance at the user's step
-    (``your_step``: :func:`~xcheck.study.your_step.your_step_answer`'s, where the study ran it) or else at its finest
-    run; None without a completed run there. ``tolerance`` [rad]: ``your_step``'s, else :data:`DEFAULT_CHECKS`'s."""
-    tol = float(tolerance if tolerance is not None else
-                your_step["tolerance"] if your_step else DEFAULT_CHECKS["tolerance"])
-    run, yours = None, False
+    (``your_step``: :func:`~xcheck.study.your_step.your_step_answer`'s, whose entry for it is read where the study ran
+    it there) or else at its finest run; None without a completed run there. ``tolerance`` [rad]: ``your_step``'s,
+    else ``tolerance``, else :data:`DEFAULT_CHECKS`'s."""
     if your_step and your_step["studied"] and not m.adaptive:
+        tol = your_step["tolerance"]
+        if m.name in your_step["methods"]:
+            return {"dt": your_step["dt"], "yours": True, "tolerance": tol, **your_step["methods"][m.name]}
         run = next((r for r in m.runs if same_step(r.dt, your_step["dt"])), None)
-        yours = run is not None
-        if run is not None and (not run.ok or run.max_attitude_error is None):
+        if run is not None:  # it ran at the user's step and did not complete
             return {"dt": run.dt, "yours": True, "error": None, "tolerance": tol, "within": False,
                     "status": run.status}
-    run = run or m.finest
+    tol = float(tolerance if tolerance is not None else
+                your_step["tolerance"] if your_step else DEFAULT_CHECKS["tolerance"])
+    run = m.finest
     if run is None or run.max_attitude_error is None:
         return None
-    out = {"dt": run.dt, "yours": yours, "error": run.max_attitude_error, "tolerance": tol,
-           "within": run.max_attitude_error <= tol}
-    if run.rtol is not None:
-        out["rtol"] = run.rtol
-    for key in ("energy_change", "momentum_change", "momentum_turn", "energy_law", "momentum_law", "turn_law"):
-        out[key] = getattr(run, key)
-    return out
+    return {"dt": run.dt, **({"rtol": run.rtol} if run.rtol is not None else {}), "yours": False,
+            "error": run.max_attitude_error, "tolerance": tol, "within": run.max_attitude_error <= tol,
+            **{key: getattr(run, key) for key in RUN_KEYS}}
+
+
+def usual_place(methods) -> str | None:
+    """The step most of ``methods``' rows are judged at (:func:`where_text`): a row judged elsewhere says its step."""
+    places = [where_text(m.accurate) for m in methods if m.accurate is not None]
+    return max(set(places), key=places.count) if places else None
 
 
 def short_law(law: str | None) -> str:
@@ -75,9 +81,11 @@ def short_law(law: str | None) -> str:
         law, "gone" if law.startswith("damped away") else "runaway" if law.startswith("gained") else law.split(" (")[0])
 
 
-def where_text(a: dict) -> str:
-    """The step a row's accuracy is judged at: ``0.01 s`` or an adaptive method's ``rtol 1e-10``."""
-    return f"rtol {a['rtol']:.0e}" if a.get("rtol") is not None else f"{step_label(a['dt'])} s"
+def where_text(a) -> str:
+    """The step a row's accuracy is judged at, or a run's (``a`` a dict or a :class:`~xcheck.results.Run`): ``0.01 s``
+    or an adaptive method's ``rtol 1e-10``."""
+    dt, rtol = (a["dt"], a.get("rtol")) if isinstance(a, dict) else (a.dt, a.rtol)
+    return f"rtol {rtol:.0e}" if rtol is not None else f"{step_label(dt)} s"
 
 
 def accurate_text(a: dict | None, *, show_step: bool) -> str:

@@ -11,10 +11,12 @@ study's results (schema ``xcheck.convergence/3``); :func:`answer_line` is the fi
 from __future__ import annotations
 
 from ..defaults import DEFAULT_CHECKS
+from ..invariants import RUN_KEYS
 from ..runners import RUNNERS
 from ..trajectory import same_step, step_label
+from .statements import short_law
 
-__all__ = ["your_step_answer", "answer_line", "drift_words", "INVARIANT_KEYS"]
+__all__ = ["your_step_answer", "answer_line", "drift_words"]
 
 
 def your_step_answer(scenario, steps, methods: dict, over_budget: dict) -> dict | None:
@@ -44,13 +46,8 @@ def your_step_answer(scenario, steps, methods: dict, over_budget: dict) -> dict 
             out["not_run"][name] = run.message or run.status
         else:
             out["methods"][name] = {"error": run.max_attitude_error, "within": run.max_attitude_error <= tolerance,
-                                    **{key: getattr(run, key) for key in INVARIANT_KEYS}}
+                                    **{key: getattr(run, key) for key in RUN_KEYS}}  # its invariants, signed
     return out
-
-
-#: What each method's entry carries of its run at the user's step beside its error: the invariants' largest signed
-#: changes and their laws (:mod:`xcheck.invariants`; None where the motion does not keep them)
-INVARIANT_KEYS = ("energy_change", "momentum_change", "momentum_turn", "energy_law", "momentum_law", "turn_law")
 
 
 def drift_words(entry: dict) -> str | None:
@@ -67,8 +64,7 @@ def drift_words(entry: dict) -> str | None:
         elif law == "bounded oscillation":
             verb, tail = "keeps", "within a bounded oscillation"
         else:
-            verb = "gains" if change > 0 else "damps"
-            tail = law.split(" ", 1)[1] if law.startswith(("gains ", "damps ")) else law
+            verb, tail = "gains" if change > 0 else "damps", short_law(law)
         groups.setdefault((verb, tail), []).append(f"{what} ({change:+.1e})")
     return ", ".join(f"{verb} {' and '.join(items)}" + (f" {tail}" if tail else "")
                      for (verb, tail), items in groups.items()) or None
