@@ -5,8 +5,8 @@ from xcheck.results import Check, MethodResult, Run, json_number
 from xcheck.study.checks import verdict
 
 RUN_KEYS = {"dt", "status", "attitude_error", "max_attitude_error", "omega_error", "max_omega_error", "energy_change",
-            "momentum_change", "momentum_turn", "energy_law", "momentum_law", "turn_law", "norm_drift", "wall_time",
-            "steps_per_second", "repeats", "evaluations"}
+            "momentum_change", "momentum_turn", "norm_drift", "wall_time", "steps_per_second", "repeats",
+            "evaluations"}
 
 
 def test_run_json_keys():

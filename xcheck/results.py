@@ -46,6 +46,10 @@ def json_number(v):
     return v if math.isfinite(v) else None
 
 
+#: A run's fields its JSON leaves out: its message (written only where there is one), its invariants' laws (see them)
+_NOT_IN_JSON = ("message", "energy_law", "momentum_law", "turn_law")
+
+
 @dataclass
 class Run:
     """One run of one method at one step (an adaptive method's: at one relative tolerance ``rtol``, with ``dt`` its
@@ -71,7 +75,9 @@ class Run:
     momentum_turn: float | None = None
     spin_change: float | None = None
     #: each one's law over the run with its direction ("gains ∝ t", "damps ∝ t^0.52", "bounded oscillation",
-    #: "round-off": :func:`xcheck.invariants.law_text`), None where not kept
+    #: "round-off": :func:`xcheck.invariants.law_text`), None where not kept; in the JSON of the run a method's
+    #: accuracy is judged at (its ``accurate``) and of the user's step (``your_step``), not of every run (a quick
+    #: report's results.json would grow by a fifth)
     energy_law: str | None = None
     momentum_law: str | None = None
     turn_law: str | None = None
@@ -99,7 +105,7 @@ class Run:
         return cls(dt=dt, status=status, message=message, wall_time=wall_time, rtol=rtol)
 
     def to_json(self) -> dict:
-        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "message"
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in _NOT_IN_JSON
                and not (f.name in ("rtol", "spin_change", "wheel_speed_error") and getattr(self, f.name) is None)}
         if not self.ok or self.message:  # a failure's reason, or a good run's note (an engine's rounded clock)
             out["message"] = self.message

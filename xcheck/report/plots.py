@@ -392,8 +392,9 @@ def _errors_in_time(series, colors, torque_free: bool):
     and |L|'s relative changes, their magnitude on log axes, solid where the method gained and dashed where it damped
     (the sign of its largest change), and the angle L's direction turned where it is kept."""
     turn = torque_free and any(s.get("momentum_turn") is not None for s in series.values())
-    rows = 1 + (2 + turn if torque_free else 0)
-    fig, axes = subplots(rows, size=(7.5, 1.4 + 2.0 * rows), legend_outside=True, sharex=True)
+    below = 2 + turn if torque_free else 0  # the invariants' panels, lower than the attitude's
+    fig, axes = subplots(1 + below, size=(7.5, 3.6 + 1.25 * below), legend_outside=True, sharex=True,
+                         gridspec_kw={"height_ratios": [2.4] + [1.25] * below})
     axes = np.atleast_1d(axes)
     for name, s in series.items():
         e = np.maximum(np.asarray(s["attitude_error"], float), 1e-17)
