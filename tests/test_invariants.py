@@ -5,6 +5,8 @@ and qpos without xcheck, where Euler gains energy and |L| and implicit / implici
 import json
 import re
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -64,25 +66,13 @@ def test_laws_are_told_with_their_direction():
 
 #: A free box at MuJoCo's step 0.01 s with implicitfast (a MuJoCo forum question: does implicitfast lose energy at
 #: 0.01 s, and Euler gain it?), its initial rate about all three axes, over 10 s.
-BOX = """<mujoco model="box">
-  <option timestep="0.01" integrator="implicitfast" gravity="0 0 0"/>
-  <worldbody>
-    <body name="box">
-      <freejoint/>
-      <geom type="box" size="0.05 0.1 0.15" mass="1" contype="0" conaffinity="0"/>
-    </body>
-  </worldbody>
-  <keyframe><key qvel="0 0 0 0.3 2.0 0.5"/></keyframe>
-</mujoco>
-"""
+BOX = Path(__file__).parent / "data" / "free_box.xml"  # test_your_step's box too
 DURATION = 10.0
 
 
 @pytest.fixture(scope="module")
-def box(tmp_path_factory):
-    path = tmp_path_factory.mktemp("box") / "box.xml"
-    path.write_text(BOX)
-    return path
+def box():
+    return BOX
 
 
 @pytest.fixture(scope="module")

@@ -5,22 +5,14 @@ default step (``mjOption.timestep`` = 0.002 s), and errors of a known order."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 #: A free box at 0.01 s with MuJoCo's implicitfast, turning about all three axes (a MuJoCo forum question: does
 #: implicitfast lose energy at 0.01 s?).
-BOX = """<mujoco model="box">
-  <option timestep="0.01" integrator="implicitfast" gravity="0 0 0"/>
-  <worldbody>
-    <body name="box">
-      <freejoint/>
-      <geom type="box" size="0.05 0.1 0.15" mass="1" contype="0" conaffinity="0"/>
-    </body>
-  </worldbody>
-  <keyframe><key qvel="0 0 0 0.3 2.0 0.5"/></keyframe>
-</mujoco>
-"""
+BOX = (Path(__file__).parent / "data" / "free_box.xml").read_text()  # shared with test_invariants
 
 
 @pytest.fixture(scope="module")

@@ -182,10 +182,11 @@ def law_text(law: str | None, exponent: float | None, change: float | None, *, a
     return f"{verb} ∝ t^{exponent:.2f}" if exponent is not None else f"{verb} ({law})"
 
 
-def change_text(change: float | None, law: str | None = None, *, angle: bool = False) -> str:
+def change_text(change: float | None, law: str | None = None, *, angle: bool = False, digits: int = 2) -> str:
     """A run's change with its sign (an angle with its unit) and, where known, its law: ``+1.95e-03 gains ∝ t``,
-    ``-1.9e-03 damps ∝ t``, ``7.1e-03 rad turns ∝ t``, ``—`` where the invariant is not kept."""
+    ``-1.9e-03 damps ∝ t``, ``7.1e-03 rad turns ∝ t``, ``—`` where the invariant is not kept; ``digits`` after the
+    point."""
     if change is None:
         return "—"
-    number = f"{change:.2e} rad" if angle else f"{change:+.2e}"
+    number = f"{change:.{digits}e} rad" if angle else f"{change:+.{digits}e}"
     return f"{number} {law}" if law else number

@@ -40,7 +40,7 @@ def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: 
             out: str | None = None, workers: int | None = None, ctx: Context) -> Outcome:
     from ..base.files import check_output_dir, check_output_file, write_json_atomic
     from ..scenario import resolve_scenario
-    from ..study.horizon import THRESHOLDS, HorizonLine, run_horizon, within_text
+    from ..study.horizon import THRESHOLDS, momentum_heading, run_horizon, within_text
 
     sc = resolve_scenario(scenario)
     T = _duration(duration, sc)
@@ -67,12 +67,12 @@ def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: 
     except ReferenceFailure as exc:
         raise UsageError(f"--duration: {exc}; a shorter duration, or a scenario with a closed form") from None
     ctx.say(f"\n{sc.name} over {T:g} s ({sc.reference} reference): attitude error ∝ t^p, the invariants' largest "
-            "changes (the energy's and |L|'s relative, + gained, - damped; a top's L·ĝ about the vertical; the angle L's "
-            "direction turned) with their laws, and how "
-            "long each stays within 1e-6 and 1e-3 rad")
+            "changes (the energy's and |L|'s relative, + gained, - damped; a top's L·ĝ about the vertical; the angle "
+            "L's direction turned) with their laws, and how long each stays within 1e-6 and 1e-3 rad")
     ctx.say(f"  reference: {res.reference_note}")
     width = max([22, *(len(line.method) for line in res.lines)])
-    ctx.say(f"  {'method':{width}s} {'step [s]':>10s} {'error at T':>11s} {'p':>6s}  {'energy':<28s} {HorizonLine.momentum_heading(res.lines):<28s} "
+    heading = momentum_heading([line.to_json() for line in res.lines])
+    ctx.say(f"  {'method':{width}s} {'step [s]':>10s} {'error at T':>11s} {'p':>6s}  {'energy':<28s} {heading:<28s} "
             f"{'L direction':<30s} " + " ".join(f"{'within ' + format(b, 'g'):>13s}" for b in THRESHOLDS))
     for line in res.lines:
         if line.status != "ok":

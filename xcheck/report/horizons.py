@@ -6,8 +6,8 @@ where the full report's goal is three seconds a scenario (docs/decisions.md)."""
 
 from __future__ import annotations
 
-from ..study.horizon import (THRESHOLDS, change_texts, default_steps, horizon_methods, horizon_plan, run_horizon,
-                             within_text)
+from ..study.horizon import (THRESHOLDS, change_texts, default_steps, horizon_methods, horizon_plan, momentum_heading,
+                             run_horizon, within_text)
 
 __all__ = ["horizon_job", "horizon_section", "start_horizons", "with_horizon", "PARTS"]
 
@@ -137,9 +137,8 @@ def horizon_section(started) -> "object | None":
             blocks.append(Para(f"Not run: {why}."))
             continue
         blocks.append(Para(f"Reference: {doc['reference_note']}."))
-        labels = dict.fromkeys(line.get("momentum_label", "|L|") for line in doc["lines"] if line["status"] == "ok")
         head = ["method", "step [s]", "error at T [rad]", "p", "energy (+ gained, − damped)",
-                " or ".join(labels) or "|L|",
+                momentum_heading(doc["lines"]),
                 "L's direction [rad]",
                 *(f"within {b:g} rad" for b in THRESHOLDS)]
         rows = []

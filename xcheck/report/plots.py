@@ -387,6 +387,11 @@ def _comparisons(data, colors):
     return fig
 
 
+def _drift_style(change) -> str:
+    """An invariant's line: solid where the method gains (its largest change is positive), dashed where it damps."""
+    return "--" if largest_change(change) < 0 else "-"
+
+
 def _errors_in_time(series, colors, torque_free: bool):
     """Attitude error against time; torque free, below it the invariants kept apart (shared time axis): the energy's
     and |L|'s relative changes, their magnitude on log axes, solid where the method gained and dashed where it damped
@@ -404,8 +409,7 @@ def _errors_in_time(series, colors, torque_free: bool):
         for ax, key in zip(axes[1:], ("energy_change", "momentum_change", "momentum_turn")):
             if s.get(key) is not None:
                 y = np.asarray(s[key], dtype=float)
-                ax.semilogy(s["t"], np.maximum(np.abs(y), 1e-18), "--" if largest_change(y) < 0 else "-", lw=1,
-                            color=colors.get(name))
+                ax.semilogy(s["t"], np.maximum(np.abs(y), 1e-18), _drift_style(y), lw=1, color=colors.get(name))
     axes[0].set_ylabel("attitude error [rad]")
     if torque_free:  # what is kept: a top's energy has its potential, its momentum is the vertical's component
         first = next(iter(series.values()), {})
@@ -536,8 +540,8 @@ def horizon_figure(doc: dict):
                        line_style(line["method"]), lw=1.2, color=colors[line["method"]], label=line["method"])
             if energy and line["energy_change"] is not None:  # solid: gains, dashed: damps (line_style's)
                 y = np.asarray(line["energy_change"], dtype=float)
-                axes[1, col].loglog(t, np.maximum(np.abs(y), 1e-17), "--" if largest_change(y) < 0 else "-",
-                                    lw=1.2, color=colors[line["method"]])
+                axes[1, col].loglog(t, np.maximum(np.abs(y), 1e-17), _drift_style(y), lw=1.2,
+                                    color=colors[line["method"]])
         for bound in (1e-6, 1e-3):
             top.axhline(bound, color="0.5", lw=0.8, ls=":")
         top.set_title((f"{doc['scenario']} over {doc['duration']:g} s ({doc['reference']} reference)\n" if col == 0

@@ -38,7 +38,8 @@ __all__ = ["run_study", "run_studies", "assemble", "StudyResult", "PLOT_SAMPLE_D
            "planned_checks", "default_methods", "not_run", "comparison_partner", "method_steps",
            "left_out_lines"]
 
-SCHEMA = "xcheck.convergence/3"  # 2: the answer at the user's step, ``your_step`` (issue 59); 3: the invariants signed and apart (issue 60)
+#: 2: the answer at the user's step, ``your_step`` (issue 59); 3: the invariants signed and apart (issue 60)
+SCHEMA = "xcheck.convergence/3"
 
 
 @dataclass

@@ -22,7 +22,8 @@ from ..scenario import Scenario
 
 __all__ = ["HorizonLine", "HorizonResult", "run_horizon", "horizon_methods", "horizon_plan", "ENGINE_STEPS",
            "default_duration", "default_steps", "within_text", "DEFAULT_STEP_COUNT",
-           "growth_exponent", "change_texts", "time_within", "log_indices", "THRESHOLDS", "LOG_SAMPLES", "UNIFORM_SAMPLES"]
+           "growth_exponent", "change_texts", "momentum_heading", "time_within", "log_indices", "THRESHOLDS",
+           "LOG_SAMPLES", "UNIFORM_SAMPLES"]
 
 #: The attitude errors [rad] whose first crossing a horizon study reports.
 THRESHOLDS = (1e-6, 1e-3)
@@ -78,14 +79,15 @@ class HorizonLine:
     def to_json(self) -> dict:
         return dataclasses.asdict(self) | {"within": {f"{k:g}": v for k, v in self.within.items()}}
 
-    @staticmethod
-    def momentum_heading(lines) -> str:
-        """The |L| column's heading for these lines: "|L|", "L·ĝ" (tops), or both."""
-        return " or ".join(dict.fromkeys(line.momentum_label for line in lines if line.status == "ok")) or "|L|"
-
     def change_texts(self) -> tuple[str, str, str]:
         """The energy's, |L|'s and L's direction's largest changes with their laws, in words (``—``: not kept)."""
         return change_texts(self.to_json())
+
+
+def momentum_heading(lines: list[dict]) -> str:
+    """The |L| column's heading for lines (their JSON): "|L|", "L·ĝ" (tops), or both."""
+    return " or ".join(dict.fromkeys(line.get("momentum_label", "|L|") for line in lines
+                                     if line["status"] == "ok")) or "|L|"
 
 
 def change_texts(line: dict) -> tuple[str, str, str]:

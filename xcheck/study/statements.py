@@ -12,7 +12,7 @@ method (schema ``xcheck.convergence/3``), the terminal's table and the report's.
 from __future__ import annotations
 
 from ..defaults import DEFAULT_CHECKS
-from ..invariants import RUN_KEYS
+from ..invariants import RUN_KEYS, change_text
 from ..trajectory import same_step, step_label
 
 __all__ = ["consistency", "accuracy", "usual_place", "CONSISTENT", "THEORY", "short_law", "where_text", "accurate_text",
@@ -103,9 +103,7 @@ def invariants_text(a: dict | None) -> tuple[str, str, str]:
     ``7.1e-03``; ``—`` where not kept."""
     if a is None or a.get("error") is None:
         return "—", "—", "—"
-    cells = []
-    for key, law in (("energy_change", "energy_law"), ("momentum_change", "momentum_law")):
-        v = a.get(key)
-        cells.append("—" if v is None else f"{v:+.1e} {short_law(a.get(law))}".rstrip())
+    cells = [change_text(a.get(key), short_law(a.get(law)), digits=1)
+             for key, law in (("energy_change", "energy_law"), ("momentum_change", "momentum_law"))]
     turn = a.get("momentum_turn")
     return cells[0], cells[1], "—" if turn is None else f"{turn:.1e}"

@@ -52,8 +52,8 @@ def your_step_answer(scenario, steps, methods: dict, over_budget: dict) -> dict 
 
 def drift_words(entry: dict) -> str | None:
     """Which way a method's run drifts, in words: ``gains energy (+4.0e-02) and |L| (+2.0e-02) ∝ t``, ``keeps
-    energy (-6.0e-15) and |L| (-3.0e-15) to round-off``, ``damps energy (-3.8e-02) ∝ t, keeps |L| (...) to round-off``;
-    None where neither is kept."""
+    energy (-6.0e-15) and |L| (-3.0e-15) to round-off``, ``damps energy (-3.8e-02) ∝ t, keeps |L| (...) to
+    round-off``; None where neither is kept."""
     groups = {}  # (verb, tail) -> ["energy (+4.0e-02)", ...], in order
     for key, law_key, what in (("energy_change", "energy_law", "energy"), ("momentum_change", "momentum_law", "|L|")):
         change, law = entry.get(key), entry.get(law_key) or ""
