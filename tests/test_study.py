@@ -214,3 +214,36 @@ def test_an_engine_equal_to_its_twin_agrees_where_the_steps_leave_both_above_the
     check = next(c for c in st.checks if c.name == "agreement:mujoco-rk4")
     assert st.methods["mujoco-rk4"].finest.attitude_error > 1e-7  # both far above the limit at these steps
     assert check.passed and check.value < 1e-9 and "lie-rkmk4, the same scheme" in check.note, check
+
+
+def test_the_bar_starts_before_the_first_run_ends(scenario):
+    """A study's bar shows its first line (0 of its tasks, what is being done) before the reference's check and the
+    first run, which on a first run compile for seconds (issue 61): every later call counts a finished task."""
+    from xcheck.integrators import compile_cache_is_cold
+    from xcheck.study import COMPILING
+
+    calls = []
+    said = COMPILING if compile_cache_is_cold() else "checking the reference"
+    st = run_study(scenario, methods=["lie-rkmk4", "formulation-2"], steps=[0.125, 0.0625], workers=1, timing=False,
+                   progress=lambda done, total, label: calls.append((done, total, label)))
+    assert st.methods["lie-rkmk4"].runs
+    assert calls[0] == (0, 2, said)
+    assert [c[:2] for c in calls[1:]] == [(1, 2), (2, 2)]
+    assert not compile_cache_is_cold()  # compiled now
+
+
+def test_a_first_run_says_it_compiles(monkeypatch, tmp_path):
+    """With an empty compile cache (a machine that never ran this release) the first line says it compiles."""
+    from xcheck import _jit
+    from xcheck.study import COMPILING, starting
+
+    monkeypatch.setenv("XCHECK_CACHE_DIR", str(tmp_path))
+    _jit.cache_root.cache_clear()
+    try:
+        calls = []
+        starting(lambda *a: calls.append(a), 7)
+        assert calls == [(0, 7, COMPILING)]
+    finally:
+        monkeypatch.undo()
+        _jit.cache_root.cache_clear()
+    assert not any(tmp_path.iterdir())  # saying so compiled nothing

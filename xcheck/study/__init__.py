@@ -34,7 +34,7 @@ from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_methods
 from .statements import accuracy, consistency
 from .your_step import your_step_answer
 
-__all__ = ["run_study", "run_studies", "assemble", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows",
+__all__ = ["run_study", "run_studies", "starting", "COMPILING", "assemble", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows",
            "planned_checks", "default_methods", "not_run", "comparison_partner", "method_steps",
            "left_out_lines"]
 
@@ -246,11 +246,12 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     except ValueError as exc:
         raise ValueError(f"steps: {exc}") from None
     tolerances = scenario.quick_tolerances if quick else scenario.tolerances
-    guard_references([scenario])
     # the engines' step budgets hold for the scenario's steps, not for steps asked for by name
     planned = {m: (tuple(steps), (), "") if steps_given else method_steps(scenario, m, steps, quick=quick)
                for m in methods}
     tasks = study_tasks(scenario, methods, planned, tolerances, timing)
+    starting(progress, len(tasks))
+    guard_references([scenario])
     done = map_tasks(run_methods, tasks, workers=workers, progress=progress, pool=pool,
                      labels=[_label(task) for task in tasks], here=prefer_here if here else None)
     by_method = {r.method: r for task_runs in done for r in task_runs}
@@ -301,7 +302,6 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
     scenario's last task is in (the report submits its figures then, behind the studies still queued). ``here``:
     this process runs tasks too, beside ``pool``, and ``idle()``'s work where it would wait for the workers
     (:func:`~xcheck.study.executor.map_tasks`)."""
-    guard_references(scenarios)
     plans = []
     for sc in scenarios:
         methods = default_methods(sc)
@@ -310,6 +310,8 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
     per_study = [study_tasks(sc, methods, planned, sc.quick_tolerances if quick else sc.tolerances)
                  for sc, methods, _, planned in plans]
     tasks = [task for ts in per_study for task in ts]
+    starting(progress, len(tasks))
+    guard_references(scenarios)
     owner = [k for k, ts in enumerate(per_study) for _ in ts]
     missing = [len(ts) for ts in per_study]
     studies: list = [None] * len(plans)
@@ -329,6 +331,19 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
     map_tasks(run_methods, tasks, workers=workers, progress=progress, pool=pool, labels=[_label(t) for t in tasks],
               on_result=done, here=prefer_here if here else None, idle=idle)
     return studies
+
+
+def starting(progress, total: int) -> None:
+    """The bar's first line, before the first run ends (the reference's check, and on a first run the compiling, take
+    seconds of their own): what is being done meanwhile."""
+    if progress:
+        from ..integrators import compile_cache_is_cold
+
+        progress(0, total, COMPILING if compile_cache_is_cold() else "checking the reference")
+
+
+#: What the bar says while a first run compiles (issue 61: a cold start shows progress from its first second).
+COMPILING = "compiling xcheck's integrators for this machine (once per release)"
 
 
 def guard_references(scenarios) -> None:
