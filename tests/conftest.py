@@ -45,6 +45,25 @@ def package_index():
                     "matrix needs it to install MuJoCo releases")
 
 
+#: The core's tests (issue 61's quick inner loop, ``pytest -m core``): the math, the integrators, the references and
+#: their checks against independent truths, the metrics and invariants, the bodies, torques and scenarios as data,
+#: the study's judgement and the house's layers, without the whole commands run in processes of their own (reports,
+#: nightlies, sweeps, signals, engines), and the layers (test_structure). Under 60 s on two cores; the whole suite
+#: stays README line 2.
+CORE = frozenset(f"test_{name}.py" for name in (
+    "rotations", "integrators", "reference", "reference_properties", "truth", "metrics", "invariants", "trajectory",
+    "body", "fields", "surface_torques", "gravity_gradient", "seeds", "split", "lgvi", "heavy_top", "gyrostat",
+    "study", "results", "json_text", "scoring", "determination", "your_step", "timing_and_advice", "models",
+    "scenario", "sweep_spec", "sensing", "implicitfast_damping", "structure"))
+
+
+def pytest_collection_modifyitems(config, items):
+    """Every test of a :data:`CORE` file is marked ``core``."""
+    for item in items:
+        if item.path.name in CORE and item.path.parent.name == "tests":
+            item.add_marker(pytest.mark.core)
+
+
 def pytest_configure(config):
     """On an empty compile cache (the suite run first on a machine, before any report), compile the integrators'
     kernels once, in two processes, before the workers start: otherwise every worker's first tests compile the same

@@ -290,3 +290,20 @@ def test_the_architecture_notes_stay_a_description():
     text = ARCHITECTURE.read_text(encoding="utf-8")
     assert len(text.splitlines()) <= 300
     assert all(f"## {h}" in text for h in ("The layers", "How data flows", "Rooms", "How to add"))
+
+
+def test_the_quick_inner_loop_names_files_that_exist_and_is_in_the_readme():
+    """``pytest -m core`` (tests/conftest.py CORE) selects test files that exist, each with tests; the marker is
+    registered and the README's development section names the command (issue 61)."""
+    import tomllib
+
+    from conftest import CORE
+
+    here = Path(__file__).parent
+    missing = [name for name in CORE if not (here / name).is_file()]
+    assert not missing, f"CORE names test files that do not exist: {missing}"
+    empty = [name for name in CORE if "\ndef test_" not in (here / name).read_text()]
+    assert not empty, f"CORE names files without tests: {empty}"
+    markers = tomllib.loads((here.parent / "pyproject.toml").read_text())["tool"]["pytest"]["ini_options"]["markers"]
+    assert any(m.startswith("core:") for m in markers)
+    assert "pytest -q -n 2 --dist loadfile -m core" in (here.parent / "README.md").read_text()
