@@ -128,6 +128,31 @@ def _on_sigint(signum, frame):
     raise KeyboardInterrupt()
 
 
+#: The signal by which a pool's management thread tells the main thread that a worker died (killed from outside, out
+#: of memory): the command ends at once, saying so, where it would first finish the runs it was doing itself (MuJoCo's
+#: rollout checks for signals between its steps, as it does for Ctrl-C). None where the platform has no SIGUSR1.
+WORKER_DIED = getattr(signal, "SIGUSR1", None)
+#: Whether the main thread was told a worker died (once a command: every pending task of the pool fails with it).
+DIED: list = []
+
+
+def worker_died() -> None:
+    """A task of this command's pool failed because a worker died (called from the pool's thread): raise
+    ``BrokenProcessPool`` in the main thread now, once, unless an interrupt (whose signal reached the workers too) is
+    already on its way, or no command's handler is in place (a library's pool: its caller hears it as it collects)."""
+    if WORKER_DIED is None or SIGNALLED or DIED or signal.getsignal(WORKER_DIED) is not _on_worker_died:
+        return
+    DIED.append(True)
+    signal.pthread_kill(threading.main_thread().ident, WORKER_DIED)
+
+
+def _on_worker_died(signum, frame):
+    if not SIGNALLED:  # a Ctrl-C to the whole process group is reported as the interrupt it is
+        from concurrent.futures.process import BrokenProcessPool
+
+        raise BrokenProcessPool("a worker process died")
+
+
 def _signalled(signum) -> None:
     SIGNALLED.append(signum)
     if len(SIGNALLED) == 1 and hasattr(signal, "setitimer"):
@@ -159,6 +184,10 @@ def raise_if_signalled() -> None:
     goes on, as if there had been no Ctrl-C."""
     if SIGNALLED:
         raise as_interrupt()
+    if DIED:  # a worker's death told while the main thread could not raise it (inside an object's __del__)
+        from concurrent.futures.process import BrokenProcessPool
+
+        raise BrokenProcessPool("a worker process died")
 
 
 def as_interrupt() -> KeyboardInterrupt:
@@ -179,12 +208,14 @@ def signals_as_interrupts():
     printed. Everything is restored as the block ends."""
     previous = None
     SIGNALLED.clear()  # a command run again in the same process (the tests) starts uninterrupted
+    DIED.clear()
     clear_stop()
     if threading.current_thread() is threading.main_thread():
         watch_signals()
         previous = [(sig, signal.signal(sig, handler)) for sig, handler in
                     ((signal.SIGTERM, _on_sigterm), (signal.SIGINT, _on_sigint),
-                     *(((signal.SIGALRM, _on_alarm),) if hasattr(signal, "SIGALRM") else ()))]
+                     *(((signal.SIGALRM, _on_alarm),) if hasattr(signal, "SIGALRM") else ()),
+                     *(((WORKER_DIED, _on_worker_died),) if WORKER_DIED is not None else ()))]
     previous_hook, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
     try:
         yield
