@@ -312,7 +312,7 @@ def _run(args) -> int:
             if interrupts.SIGNALLED:  # the signal, turned into another error by the module it landed in
                 raise as_interrupt() from None
             if interrupts.DIED:  # a worker's death, told by a signal that landed in such a module
-                raise BrokenProcessPool("a worker process died") from None
+                raise interrupts.worker_death() from None
             raise
     except BrokenProcessPool:
         print("xcheck: error: a worker process died (killed from outside, or out of memory); no report was written",

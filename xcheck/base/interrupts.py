@@ -137,7 +137,7 @@ DIED: list = []
 
 
 def worker_died() -> None:
-    """A task of this command's pool failed because a worker died (called from the pool's thread): raise
+    """A worker of this command's pool died (called from the thread that watches them): raise
     ``BrokenProcessPool`` in the main thread now, once, unless an interrupt (whose signal reached the workers too) is
     already on its way, or no command's handler is in place (a library's pool: its caller hears it as it collects)."""
     if WORKER_DIED is None or SIGNALLED or DIED or signal.getsignal(WORKER_DIED) is not _on_worker_died:
@@ -146,11 +146,16 @@ def worker_died() -> None:
     signal.pthread_kill(threading.main_thread().ident, WORKER_DIED)
 
 
+def worker_death():
+    """The error a worker's death is raised as (``BrokenProcessPool``, as the pool itself raises it)."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    return BrokenProcessPool("a worker process died")
+
+
 def _on_worker_died(signum, frame):
     if not SIGNALLED:  # a Ctrl-C to the whole process group is reported as the interrupt it is
-        from concurrent.futures.process import BrokenProcessPool
-
-        raise BrokenProcessPool("a worker process died")
+        raise worker_death()
 
 
 def _signalled(signum) -> None:
@@ -185,9 +190,7 @@ def raise_if_signalled() -> None:
     if SIGNALLED:
         raise as_interrupt()
     if DIED:  # a worker's death told while the main thread could not raise it (inside an object's __del__)
-        from concurrent.futures.process import BrokenProcessPool
-
-        raise BrokenProcessPool("a worker process died")
+        raise worker_death()
 
 
 def as_interrupt() -> KeyboardInterrupt:

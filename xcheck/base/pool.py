@@ -6,8 +6,7 @@
   SIGKILL (``PR_SET_PDEATHSIG``); elsewhere a watchdog thread notices the new parent process id. With the
   workers gone, multiprocessing's resource tracker sees its pipe close and exits too.
 * A worker that dies while the command runs (killed from outside, out of memory) is heard at once: a thread waits on
-  the workers' ends, and every task a callback (:class:`_Pool`), and the main thread is told by a signal
-  (:func:`xcheck.base.interrupts.worker_died`) instead of when it next collects a result, after its own runs.
+  the workers' ends and tells the main thread by a signal (:func:`_watch_workers`).
 """
 
 from __future__ import annotations
@@ -47,40 +46,19 @@ def _die_with_parent(parent_pid: int) -> None:
     threading.Thread(target=watch, name="xcheck-parent-watch", daemon=True).start()
 
 
-class _Pool(ProcessPoolExecutor):
-    """A process pool whose tasks, should a worker die, tell the main thread at once
-    (:func:`xcheck.base.interrupts.worker_died`) instead of when it next collects a result."""
-
-    #: Set by :func:`stop_pool`: the workers it ends are not deaths to tell.
-    stopping = False
-
-    def submit(self, fn, /, *args, **kwargs):
-        future = super().submit(fn, *args, **kwargs)
-        future.add_done_callback(self._said_if_broken)
-        return future
-
-    def _said_if_broken(self, future) -> None:
-        from concurrent.futures.process import BrokenProcessPool
-
-        from .interrupts import worker_died
-
-        if not self.stopping and not future.cancelled() and isinstance(future.exception(), BrokenProcessPool):
-            worker_died()
-
-
 def make_pool(workers: int | None = None) -> ProcessPoolExecutor:
     """A pool of ``workers`` spawned processes (default and at most: the CPU count; more would only share the CPUs,
-    each holding ~55 MB) that die with this process; a worker's death is heard at once (:class:`_Pool`)."""
+    each holding ~55 MB) that die with this process."""
     cpus = os.cpu_count() or 1
-    return _Pool(max_workers=min(workers or cpus, cpus), mp_context=multiprocessing.get_context("spawn"),
-                 initializer=_die_with_parent, initargs=(os.getpid(),))
+    return ProcessPoolExecutor(max_workers=min(workers or cpus, cpus), mp_context=multiprocessing.get_context("spawn"),
+                               initializer=_die_with_parent, initargs=(os.getpid(),))
 
 
 def stop_pool(pool: ProcessPoolExecutor, *, grace: float = 2.0, completed: bool = False) -> None:
     """Stop ``pool`` now: cancel what has not started, terminate the workers (SIGTERM, then SIGKILL after
     ``grace`` seconds) and wait for them, so that nothing they write can land after this returns. ``completed``:
     every task's result was collected, so nothing is left to send to the workers (see the end)."""
-    pool.stopping = True
+    pool.stopping = True  # the ends of these workers are not deaths to tell (_watch_workers)
     procs = list((getattr(pool, "_processes", None) or {}).values())  # the executor's own record of its workers
     # shutdown() forgets these three (it sets them to None), so they are taken first
     wakeup = getattr(pool, "_executor_manager_thread_wakeup", None)
@@ -189,21 +167,20 @@ def _start_workers(pool: ProcessPoolExecutor, modules=()) -> None:
         # FileNotFoundError for a semaphore gone) as it started after this process had ended (seen in the suite)
         with interrupts_deferred(), spawned_with_sigint_blocked():
             pool.starting = [pool.submit(_import, modules) for _ in range(pool._max_workers)]
-    else:
-        main_thread = threading.current_thread() is threading.main_thread()
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
-        try:
-            pool.starting = [pool.submit(_import, modules) for _ in range(pool._max_workers)]
-        finally:
-            if main_thread:
-                signal.signal(signal.SIGINT, previous)
-    _watch_workers(pool)
+        return
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
+    try:
+        pool.starting = [pool.submit(_import, modules) for _ in range(pool._max_workers)]
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)
 
 
 def _watch_workers(pool) -> None:
-    """A worker of ``pool`` that dies while it has no task (its start done, this process busy with its own runs) fails
-    no task, and would be heard only when the next one is given: a thread waits on the workers' ends and tells the
-    main thread (:func:`xcheck.base.interrupts.worker_died`) unless :func:`stop_pool` ended them."""
+    """A worker of ``pool`` that dies (killed from outside, out of memory) is heard when this process next collects a
+    result, after its own runs, and not at all while the worker had no task: a thread waits on the workers' ends and
+    tells the main thread at once (:func:`xcheck.base.interrupts.worker_died`) unless :func:`stop_pool` ended them."""
     from multiprocessing.connection import wait
 
     from .interrupts import worker_died
@@ -283,6 +260,7 @@ def worker_pool(workers: int | None = None, *, warm: tuple[str, ...] = ()):
     completed = False
     try:
         _start_workers(pool, warm)
+        _watch_workers(pool)
         yield pool
         completed = True
     finally:

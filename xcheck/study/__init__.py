@@ -34,8 +34,8 @@ from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_methods
 from .statements import accuracy, consistency
 from .your_step import your_step_answer
 
-__all__ = ["run_study", "run_studies", "starting", "COMPILING", "assemble", "StudyResult", "PLOT_SAMPLE_DT", "throughput_rows",
-           "planned_checks", "default_methods", "not_run", "comparison_partner", "method_steps",
+__all__ = ["run_study", "run_studies", "starting", "COMPILING", "assemble", "StudyResult", "PLOT_SAMPLE_DT",
+           "throughput_rows", "planned_checks", "default_methods", "not_run", "comparison_partner", "method_steps",
            "left_out_lines"]
 
 #: 2: the answer at the user's step, ``your_step`` (issue 59); 3: the invariants signed and apart (issue 60)
@@ -333,6 +333,10 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
     return studies
 
 
+#: What the bar says while a first run compiles (issue 61: a cold start shows progress from its first second).
+COMPILING = "compiling xcheck's integrators for this machine (once per release)"
+
+
 def starting(progress, total: int) -> None:
     """The bar's first line, before the first run ends (the reference's check, and on a first run the compiling, take
     seconds of their own): what is being done meanwhile."""
@@ -340,10 +344,6 @@ def starting(progress, total: int) -> None:
         from ..integrators import compile_cache_is_cold
 
         progress(0, total, COMPILING if compile_cache_is_cold() else "checking the reference")
-
-
-#: What the bar says while a first run compiles (issue 61: a cold start shows progress from its first second).
-COMPILING = "compiling xcheck's integrators for this machine (once per release)"
 
 
 def guard_references(scenarios) -> None:
