@@ -37,6 +37,19 @@ def _nightly(*args, env=None, popen=False):
     return subprocess.run(cmd, **kwargs)
 
 
+def _nightly_refused(capsys, monkeypatch, *args):
+    """``xcheck nightly`` as :func:`_nightly` runs it, in this process, for a refusal: no study or run may start
+    (:func:`test_abuse._no_work`), and what the user is shown is the command's exit code and its stderr. A process of
+    its own costs a second of imports a case and proves nothing more about a refusal made before any work."""
+    from test_abuse import _no_work
+
+    from xcheck.cli import main
+
+    _no_work(monkeypatch)
+    code = main(["nightly", "--quick", "--workers", "1", "--speed-drop", "1", *map(str, args)])
+    return code, capsys.readouterr().err
+
+
 #: The methods the nightly's runs here study: ours, MuJoCo's RK4 (the agreement check) and a first-order one. What
 #: the nightly does with a run does not depend on how many methods it has, and each run is a process of its own.
 METHODS = '["lie-rkmk4", "formulation-2", "mujoco-rk4", "mujoco-euler"]'
@@ -136,17 +149,17 @@ def _sql(statement):
     (_sql("DROP TABLE runs"), "damaged: an xcheck history without its runs table"),
     (_sql("DROP TABLE metrics"), "damaged: an xcheck history without its metrics table"),
 ])
-def test_a_bad_history_exits_2_before_any_work_and_is_left_untouched(tmp_path, make, words):
+def test_a_bad_history_exits_2_before_any_work_and_is_left_untouched(tmp_path, capsys, monkeypatch, make, words):
     """Refused before the run (no report folder either: the history is checked first), exit 2, the file
     untouched."""
     history = tmp_path / "h.sqlite"
     make(history)
     scenario = _scenario_copy(tmp_path)
     before = _files(tmp_path)
-    proc = _nightly(scenario, "--out", tmp_path / "reports", "--history", history)
-    assert proc.returncode == 2, proc.stdout + proc.stderr
-    assert proc.stderr.startswith(f"xcheck: error: {history}: ") and words in proc.stderr, proc.stderr
-    assert "Traceback" not in proc.stderr
+    code, err = _nightly_refused(capsys, monkeypatch, scenario, "--out", tmp_path / "reports", "--history", history)
+    assert code == 2, err
+    assert err.startswith(f"xcheck: error: {history}: ") and words in err, err
+    assert "Traceback" not in err
     assert _files(tmp_path) == before
 
 
@@ -179,7 +192,7 @@ def test_a_history_that_cannot_be_written_exits_2_before_any_work(tmp_path, file
     assert list(out.iterdir()) == [] and _files(folder) == before
 
 
-def test_bad_arguments_exit_2_naming_them(tmp_path):
+def test_bad_arguments_exit_2_naming_them(tmp_path, capsys, monkeypatch):
     cases = [(["--keep", "0"], "--keep: expected a positive number"),
              (["--baseline", "3"], "--baseline 3: the history"),
              (["--mujoco", "4.x"], "--mujoco: '4.x' is not a release number"),
@@ -190,8 +203,9 @@ def test_bad_arguments_exit_2_naming_them(tmp_path):
              (["--history", tmp_path / "missing" / "h.sqlite"], "does not exist"),
              (["--history", ""], "--history: expected a SQLite file or a postgresql:// URL, got an empty string")]
     for extra, words in cases:
-        proc = _nightly(_scenario_copy(tmp_path), "--out", tmp_path / "r", *extra)
-        assert proc.returncode == 2 and words in proc.stderr, (extra, proc.stderr)
+        code, err = _nightly_refused(capsys, monkeypatch, _scenario_copy(tmp_path), "--out", tmp_path / "r", *extra)
+        assert code == 2 and words in err and "Traceback" not in err, (extra, err)
+        assert not (tmp_path / "r").exists() or not list((tmp_path / "r").iterdir()), extra  # nothing written
 
 
 def test_two_nightlies_at_once_both_land(tmp_path):
