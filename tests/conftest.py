@@ -81,3 +81,44 @@ def pytest_configure(config):
              for h, w in zip(halves, warm)]
     for p in procs:
         p.wait()
+
+
+def _session_root(tmp_path_factory):
+    """The folder every process of this pytest run shares: with xdist, the parent of the workers' own base
+    folders (``pytest-N/popen-gw0`` and ``popen-gw1`` share ``pytest-N``); without it, the run's base folder."""
+    base = tmp_path_factory.getbasetemp()
+    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+
+
+def shared_result(tmp_path_factory, name: str, make):
+    """``make(folder)`` (which returns a JSON-able value) computed once per pytest run, whichever of its processes
+    asks first, the others waiting on a lock and then reading the value (the suite's costly fixtures, issue 61:
+    "compute each expensive fixture once"). ``folder`` is the shared folder ``make`` writes into; the value is kept
+    beside it, written only once ``make`` returned, so that a process that sees it sees a finished folder."""
+    import fcntl
+    import json
+
+    root = _session_root(tmp_path_factory)
+    folder, value = root / name, root / f"{name}.json"
+    with open(root / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file is closed
+        if not value.exists():
+            folder.mkdir(exist_ok=True)
+            result = make(folder)
+            value.with_suffix(".partial").write_text(json.dumps(result))
+            value.with_suffix(".partial").rename(value)
+    return folder, json.loads(value.read_text())
+
+
+@pytest.fixture(scope="session")
+def bundled_quick_report(tmp_path_factory):
+    """``xcheck report --quick --trajectories`` of every bundled scenario, in a process of its own, once per pytest
+    run (test_cli's checks of the main job, test_history's stored report): ``(proc, out)``, ``proc`` the finished
+    command (its return code, stdout and stderr), ``out`` the ``--out`` folder. Read it; do not change it."""
+    def make(folder):
+        proc = subprocess.run([sys.executable, "-m", "xcheck", "report", "--quick", "--trajectories", "--out",
+                               str(folder / "reports")], capture_output=True, text=True)
+        return {"args": proc.args, "returncode": proc.returncode, "stdout": proc.stdout, "stderr": proc.stderr}
+
+    folder, done = shared_result(tmp_path_factory, "bundled-quick-report", make)
+    return subprocess.CompletedProcess(**done), folder / "reports"

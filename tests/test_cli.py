@@ -28,10 +28,9 @@ def xcheck(*args, cwd=None):
 # the main job, --quick
 # ------------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
-def quick_report(tmp_path_factory):
-    out = tmp_path_factory.mktemp("reports")
-    proc = xcheck("report", "--quick", "--trajectories", "--out", str(out))
-    return proc, out
+def quick_report(bundled_quick_report):
+    """The main job, --quick, with its trajectories: computed once per pytest run (tests/conftest.py)."""
+    return bundled_quick_report
 
 
 def test_quick_report_passes_and_writes_every_file(quick_report):

@@ -143,6 +143,11 @@ class _SQLite:
     def exists(self) -> bool:
         return self.path.exists()
 
+    def interrupted_write(self) -> bool:
+        """Whether a writer's journal is left beside the file (SQLite's rollback journal, not yet rolled back)."""
+        journal = self.path.with_name(self.path.name + "-journal")
+        return journal.is_file() and journal.stat().st_size > 0
+
     def tables(self, con) -> set[str]:
         return {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
 
@@ -200,6 +205,9 @@ class _Postgres:
 
     def exists(self) -> bool:
         return True
+
+    def interrupted_write(self) -> bool:  # the server rolls back a writer's transaction itself
+        return False
 
     def tables(self, con) -> set[str]:
         return {r[0] for r in con.execute("SELECT table_name FROM information_schema.tables "
@@ -273,9 +281,16 @@ class History:
         if self.db.exists():
             con = None
             try:
-                con = self.db.connect(read_only=True)
+                # read only: a check writes nothing. A writer's check reads through a connection that may write, so
+                # that a journal left by a writer killed mid-transaction (a hot journal) is rolled back, as SQLite
+                # does on the first read: the file as it was before that transaction, where a read-only connection
+                # cannot read it at all ("attempt to write a readonly database"). The file exists: nothing is created
+                con = self.db.connect(read_only=read_only)
                 self.empty = not _refuse_foreign(self.db, con)
             except self.db.errors as exc:
+                if read_only and self.db.interrupted_write():
+                    raise HistoryError(f"{self.where}: a write to it was interrupted and its journal is left beside "
+                                       "it; a nightly (any command that writes the history) rolls it back") from None
                 raise HistoryError(f"{self.where}: not an xcheck history, or it cannot be read: {exc}") from None
             finally:
                 if con is not None:
