@@ -121,6 +121,30 @@ def test_k_selects_a_method_and_a_check(pytester):
     result.assert_outcomes(passed=1, deselected=6)
 
 
+def test_the_report_of_the_run_and_of_a_selection_that_runs_only_its_engines_methods_and_ours(pytester):
+    """The report of the run (``--xcheck-report``), with every item and with ``-k lie-rkmk4``, which leaves MuJoCo's
+    RK4 out of the study (an engine's method no selected item names), keeps every one of ours (``formulation-2`` too:
+    the engines are compared with ours), and gives lie-rkmk4's and formulation-2's numbers of the full study bit for
+    bit (truth: the same file's study with every item selected)."""
+    import json
+
+    _scenario_file(pytester)
+    methods = {}
+    for name, args, passed in (("all", (), 7), ("picked", ("-k", "lie-rkmk4"), 2)):
+        result = _run(pytester, "-q", *args, "--xcheck-report", name)
+        result.assert_outcomes(passed=passed, deselected=7 - passed)
+        assert (pytester.path / name / "latest" / "index.html").is_file()
+        assert "xcheck report: " in result.stdout.str()
+        doc = json.loads((pytester.path / name / "latest" / "results.json").read_text())
+        methods[name] = doc["scenarios"][0]["methods"]
+    assert list(methods["all"]) == ["lie-rkmk4", "formulation-2", "mujoco-rk4"]
+    assert list(methods["picked"]) == ["lie-rkmk4", "formulation-2"]
+    for name in ("lie-rkmk4", "formulation-2"):
+        full, picked = methods["all"][name], methods["picked"][name]
+        assert [r["attitude_error"] for r in picked["runs"]] == [r["attitude_error"] for r in full["runs"]]
+        assert picked["observed_order"] == full["observed_order"]
+
+
 def test_under_xdist(pytester):
     """Two workers, a file per worker: the same items pass as without xdist (MuJoCo's callback is installed and
     restored around every run, in each worker's own process)."""
@@ -129,14 +153,6 @@ def test_under_xdist(pytester):
     _scenario_file(pytester, name="xcheck_gyro2.toml")
     result = _run(pytester, "-q", "-n", "2", "--dist", "loadfile")
     result.assert_outcomes(passed=14)
-
-
-def test_the_report_of_the_run(pytester):
-    _scenario_file(pytester)
-    result = _run(pytester, "-q", "--xcheck-report", "rep")
-    result.assert_outcomes(passed=7)
-    assert (pytester.path / "rep" / "latest" / "index.html").is_file()
-    assert "xcheck report: " in result.stdout.str()
 
 
 def test_an_ordinary_suite_is_left_alone(pytester):

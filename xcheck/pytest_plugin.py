@@ -9,7 +9,10 @@ check the study makes: ``runs``, ``order``, ``final-error``, ``invariants``, ``a
 cannot decide (INCONCLUSIVE: no asymptotic range at its steps, a suspect or uncertain reference, a vacuous study;
 xcheck's exit code 4) is a skipped item whose reason says why. The study runs
 once per file, in this process, when its first item runs; its items share it (with pytest-xdist, use
-``--dist loadfile`` so that one worker runs a file's items).
+``--dist loadfile`` so that one worker runs a file's items). Where ``-k`` (or ``-m``, or naming items) leaves out some
+of a file's methods, the study runs the methods of its selected items and every method of xcheck's own (which the
+engines are compared with, and which are fast): an engine's method nobody asked about is not run. Its judgement of
+the study as a whole (a suspect reference, a vacuous study) is then made from the methods it ran.
 
 Options: ``--xcheck-quick`` (or ini ``xcheck_quick = true``) runs the scenarios' quick steps; ``--xcheck-report
 DIR`` writes the full cross-check report of the studies run (with xdist, one report per worker). A scenario
@@ -122,7 +125,7 @@ class ScenarioFile(pytest.File):
             try:
                 check_scenario_model(self.scenario)
                 # a run is timed again only for --xcheck-report's figures (the checks read no wall time)
-                st = run_study(self.scenario, quick=_quick(self.config), workers=1,
+                st = run_study(self.scenario, methods=self._methods_to_run(), quick=_quick(self.config), workers=1,
                                timing=self.config.getoption("xcheck_report") is not None)
                 _STUDIES.append(st)
                 self._study = st
@@ -131,6 +134,21 @@ class ScenarioFile(pytest.File):
         if isinstance(self._study, Exception):
             raise XcheckFailure(f"{self.scenario.name}: the study could not run: {self._study}")
         return self._study
+
+
+    def _methods_to_run(self) -> list[str] | None:
+        """The methods this file's study runs: None (all of the scenario's) where every method has a selected item;
+        else the selected items' methods and all of xcheck's own, in the scenario's order (see the module
+        docstring). The selection is the session's items after ``-k``, ``-m`` and named items took theirs out."""
+        from .runners import RUNNERS
+        from .study import default_methods
+
+        methods = default_methods(self.scenario)
+        selected = {item.parent.name for item in self.session.items
+                    if isinstance(item, CheckItem) and item.parent.parent is self}
+        if selected.issuperset(methods):
+            return None
+        return [m for m in methods if m in selected or RUNNERS[m].engine == "xcheck"]
 
 
 class MethodNode(pytest.Collector):
