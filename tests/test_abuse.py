@@ -7,6 +7,7 @@ traceback. The property-based test over generated inputs is in ``test_cli_fuzz.p
 import gc
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -28,6 +29,7 @@ from xcheck.reference import ReferenceFailure, dop853_solution, exact_torque_fre
 from xcheck.report import render
 
 GYRO = BUNDLED_MODELS / "gyroscope.xml"
+SCENARIOS = BUNDLED_MODELS / "scenarios"
 GYRO_I = [0.005625, 0.0028125, 0.0028125]
 #: A blow-up: omega = [9e4, 1e3, 2e3] rad/s (under the 1e5 rad/s xcheck takes) at dt = 0.25 s.
 HUGE_W = [9e4, 1e3, 2e3]  # near the 1e5 rad/s xcheck takes: MuJoCo blows up at 0.25 s steps
@@ -281,6 +283,22 @@ def _start_report(out, *scenarios, slow_writes=False):
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
+def _bundled_with_few_methods(folder: Path, *names: str) -> list[str]:
+    """The bundled scenarios ``names`` as files of the user's in ``folder``, each studying four methods (two of ours,
+    MuJoCo's RK4 and Euler): a report of them is a report like the bundle's, its pool's workers running studies and
+    drawing figures, in seconds instead of the tens that every engine's methods take."""
+    paths = []
+    for name in names:
+        text = (SCENARIOS / f"{name}.toml").read_text()
+        text = re.sub(r'model = "\.\./([^"]+)"', lambda m: f'model = "{(BUNDLED_MODELS / m[1]).as_posix()}"', text)
+        text = text.replace("[study]", '[study]\nmethods = ["lie-rkmk4", "formulation-2", "mujoco-rk4", "mujoco-euler"]',
+                            1)
+        path = folder / f"{name}.toml"
+        path.write_text(text)
+        paths.append(str(path))
+    return paths
+
+
 def _wait_for(predicate, timeout, step=0.005):
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -300,9 +318,11 @@ def test_signal_during_writing_leaves_nothing(tmp_path, sig, code, word):
     """The signal arrives while the report is being written (its hidden folder exists) and the pool's
     workers are drawing figures: exit promptly, workers gone, no folder, no PNG recreated afterwards."""
     out = tmp_path / "reports"
-    proc = _start_report(out, "tumbler-intermediate-axis", "gyroscope-nonsingular", slow_writes=True)
+    scenarios = _bundled_with_few_methods(tmp_path, "tumbler-intermediate-axis", "gyroscope-nonsingular")
+    proc = _start_report(out, *scenarios, slow_writes=True)
     assert _wait_for(lambda: list(out.glob(".incomplete-*")), timeout=120), proc.communicate()
     workers = _children(proc.pid)
+    assert workers, "the pool's workers are running as the report is written"
     os.killpg(proc.pid, sig)  # like Ctrl-C on a terminal: the whole process group
     t0 = time.monotonic()
     _, err = proc.communicate(timeout=30)
@@ -414,6 +434,7 @@ def test_a_ctrl_c_while_a_worker_is_forked_is_not_lost(tmp_path):
 
 WAKEUP_AFTER_CLOSE = """
 import os
+import re
 from xcheck.base.pool import make_pool, stop_pool
 if __name__ == "__main__":
     pool = make_pool(1)
