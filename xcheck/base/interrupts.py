@@ -60,6 +60,9 @@ def compiled_run_flag():
 _STOPPING = {signal.SIGINT, signal.SIGTERM}
 #: The watcher's socket pair and thread, once made (:func:`watch_signals`).
 _WATCH: dict = {}
+#: SIGINT and SIGTERM as they arrived at this process (read by the watcher thread as Python's C handler wrote them,
+#: before the main thread runs the Python handler that records them in :data:`SIGNALLED`), for the length of a command.
+ARRIVED: list = []
 
 
 def _watch(sock) -> None:
@@ -73,6 +76,8 @@ def _watch(sock) -> None:
         if not data:
             return
         for signum in data:
+            if signum in _STOPPING:
+                ARRIVED.append(signum)
             if signum in _STOPPING or (signum == getattr(signal, "SIGALRM", -1) and SIGNALLED):
                 stop_flag()[0] = signum
 
@@ -136,11 +141,34 @@ WORKER_DIED = getattr(signal, "SIGUSR1", None)
 DIED: list = []
 
 
-def worker_died() -> None:
-    """A worker of this command's pool died (called from the thread that watches them): raise
-    ``BrokenProcessPool`` in the main thread now, once, unless an interrupt (whose signal reached the workers too) is
-    already on its way, or no command's handler is in place (a library's pool: its caller hears it as it collects)."""
-    if WORKER_DIED is None or SIGNALLED or DIED or signal.getsignal(WORKER_DIED) is not _on_worker_died:
+#: How long a worker's death by SIGINT or SIGTERM waits to be seen as this process's own interrupt (the signal sent to
+#: the whole process group, which ended the worker) before it is told as a death.
+INTERRUPT_GRACE = 0.5
+
+
+def _interrupted() -> bool:
+    return bool(SIGNALLED or ARRIVED)
+
+
+def worker_died(exitcode=None) -> None:
+    """A worker of this command's pool died (called from the thread that watches them, with the worker's exit code):
+    raise ``BrokenProcessPool`` in the main thread now, once, unless an interrupt (whose signal reached the workers
+    too) is already on its way, or no command's handler is in place (a library's pool: its caller hears it as it
+    collects).
+
+    A worker ended by SIGINT or SIGTERM (exit code -2 or -15) is most likely this process's group interrupted: the
+    signal reaches this process at the same moment, and the main thread's handler may not have run yet. Python runs
+    pending handlers in the order of the signals' numbers, SIGUSR1 (10) before SIGTERM (15), so a death told at once
+    was reported instead of the SIGTERM ("a worker process died", exit 3, where 143 was due: seen in the suite).
+    Such a death waits up to :data:`INTERRUPT_GRACE` for the signal to be seen here (:data:`ARRIVED`, from the
+    watcher thread), and is not told if it is."""
+    if WORKER_DIED is None or DIED or signal.getsignal(WORKER_DIED) is not _on_worker_died:
+        return
+    if exitcode in (-signal.SIGINT, -signal.SIGTERM):
+        deadline = time.monotonic() + INTERRUPT_GRACE
+        while not _interrupted() and time.monotonic() < deadline:
+            time.sleep(0.01)
+    if _interrupted():
         return
     DIED.append(True)
     signal.pthread_kill(threading.main_thread().ident, WORKER_DIED)
@@ -154,7 +182,7 @@ def worker_death():
 
 
 def _on_worker_died(signum, frame):
-    if not SIGNALLED:  # a Ctrl-C to the whole process group is reported as the interrupt it is
+    if not _interrupted():  # a Ctrl-C to the whole process group is reported as the interrupt it is
         raise worker_death()
 
 
@@ -211,6 +239,7 @@ def signals_as_interrupts():
     printed. Everything is restored as the block ends."""
     previous = None
     SIGNALLED.clear()  # a command run again in the same process (the tests) starts uninterrupted
+    ARRIVED.clear()
     DIED.clear()
     clear_stop()
     if threading.current_thread() is threading.main_thread():

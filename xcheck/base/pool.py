@@ -185,12 +185,14 @@ def _watch_workers(pool) -> None:
 
     from .interrupts import worker_died
 
-    sentinels = [p.sentinel for p in (getattr(pool, "_processes", None) or {}).values()]
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    sentinels = [p.sentinel for p in processes]
 
     def watch():
-        wait(sentinels)
+        ended = wait(sentinels)
         if not getattr(pool, "stopping", False):
-            worker_died()
+            dead = next((p for p in processes if p.sentinel in ended), None)
+            worker_died(dead.exitcode if dead is not None else None)
 
     if sentinels:
         threading.Thread(target=watch, name="xcheck-worker-watch", daemon=True).start()
