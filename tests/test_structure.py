@@ -3,6 +3,7 @@ functions too), and a core that imports neither MuJoCo nor matplotlib (the engin
 the edge)."""
 
 import ast
+from functools import lru_cache
 from pathlib import Path
 
 import pytest
@@ -21,6 +22,13 @@ def module_name(path: Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
+@lru_cache(maxsize=None)
+def _tree(path: Path, stamp: int) -> ast.Module:
+    """``path`` parsed, once per file and version (``stamp``, its modification time): the rules below read the
+    package's 200 files again and again, and parsing them was most of this file's 20 s."""
+    return ast.parse(path.read_text())
+
+
 def imports(path: Path, modules=()) -> set[str]:
     """Every module this file imports, anywhere in it, as names relative to the package ('' is xcheck itself).
     ``from .pkg import name`` counts as importing ``pkg.name`` when that is one of ``modules``, else ``pkg``."""
@@ -31,7 +39,7 @@ def imports(path: Path, modules=()) -> set[str]:
         return name.removeprefix("xcheck.") if name.startswith("xcheck.") else ("" if name == "xcheck" else name)
 
     out = set()
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in ast.walk(_tree(path, path.stat().st_mtime_ns)):
         if isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package[: len(package) - node.level + 1]
