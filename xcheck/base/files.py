@@ -171,20 +171,31 @@ def _key(k) -> str:
     return json.dumps(k) if isinstance(k, str) else json.dumps({k: 0}, separators=(",", ":"))[1:-3]
 
 
-def write_trajectory_csv(path, comment: str, t, q, omega, attitude_error, euler=None) -> None:
-    """A trajectory as CSV: a ``#`` comment line, a header, then ``t, q (4), omega (3), error`` (and three
-    Euler angles if given), 17 significant digits; a non-finite value (an error where the reference is
+def trajectory_csv(comment: str, t, q, omega, attitude_error, euler=None) -> str:
+    """A trajectory as CSV text: a ``#`` comment line, a header, then ``t, q (4), omega (3), error`` (and three
+    Euler angles if given), 17 significant digits (``%.17g``); a non-finite value (an error where the reference is
     not defined) is an empty field."""
+    import math
+
     import numpy as np
 
     header = ["t_s", "qw", "qx", "qy", "qz", "wx_rad_s", "wy_rad_s", "wz_rad_s", "attitude_error_rad"]
-    cols = [np.asarray(t)[:, None], q, omega, np.asarray(attitude_error)[:, None]]
+    cols = [np.asarray(t, dtype=float)[:, None], q, omega, np.asarray(attitude_error, dtype=float)[:, None]]
     if euler is not None:
         header += ["euler1_rad", "euler2_rad", "euler3_rad"]
         cols.append(euler)
+    table = np.hstack(cols).astype(float)
+    row = ",".join(["%.17g"] * table.shape[1])  # a whole row formatted at once: twice as fast as value by value
+    finite = np.isfinite(table).all(axis=1).tolist()
     lines = [f"# {comment}", ",".join(header)]
-    lines += [",".join("" if not np.isfinite(v) else f"{v:.17g}" for v in row) for row in np.hstack(cols)]
-    write_text_atomic(path, "\n".join(lines) + "\n")
+    lines += [row % tuple(values) if ok else ",".join("%.17g" % v if math.isfinite(v) else "" for v in values)
+              for values, ok in zip(table.tolist(), finite)]
+    return "\n".join(lines) + "\n"
+
+
+def write_trajectory_csv(path, comment: str, t, q, omega, attitude_error, euler=None) -> None:
+    """:func:`trajectory_csv`, written atomically to ``path``."""
+    write_text_atomic(path, trajectory_csv(comment, t, q, omega, attitude_error, euler))
 
 
 # ------------------------------------------------------------------------------------------------

@@ -14,10 +14,10 @@ import numpy as np
 
 from ..base.files import (
     StampedFolder,
+    trajectory_csv,
     write_bytes_atomic,
     write_json_atomic,
     write_text_atomic,
-    write_trajectory_csv,
 )
 from ..results import outcome_of
 from ..study.statements import accurate_text, invariants_text, usual_place, where_text
@@ -106,8 +106,9 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
             if st.name not in figures:
                 figures[st.name] = (pool.submit(draw_figures, st.data, st.series, quick) if pool is not None
                                     else draw_figures(st.data, st.series, quick))
-        for st in studies if trajectories else ():
-            _write_csvs(st, tmp / "trajectories" / st.name)
+        for name, files in _trajectory_files(studies, pool).items() if trajectories else ():
+            for file, text in (files.result() if hasattr(files, "result") else files):
+                write_bytes_atomic(tmp / "trajectories" / name / file, text)
         captions = {}
         for st in studies:
             drawn = figures[st.name]
@@ -142,15 +143,24 @@ def draw_figures(data: dict, series: dict, quick: bool = False) -> list[tuple[st
     return render_figures(data, series, quick=quick)
 
 
-def _write_csvs(st, folder: Path):
-    folder.mkdir(parents=True, exist_ok=True)
-    for method, s in st.series.items():
-        write_trajectory_csv(
-            folder / f"{method}.csv",
-            f"{st.name} / {method}: the finest run (dt = {s['dt']:.6g} s), sampled every "
-            f"{max(s['dt'], 1 / 256):.6g} s; q [w, x, y, z] body->world, body rates in body components; "
-            "attitude error against the reference (empty where it is not defined)",
-            s["t"], s["q"], s["omega"], s["attitude_error"], s.get("euler"))
+def trajectory_files(name: str, series: dict) -> list[tuple[str, bytes]]:
+    """``--trajectories``: each method's sampled finest run of scenario ``name`` as CSV, ``[(file, UTF-8 bytes)]``."""
+    return [(f"{method}.csv", trajectory_csv(
+        f"{name} / {method}: the finest run (dt = {s['dt']:.6g} s), sampled every "
+        f"{max(s['dt'], 1 / 256):.6g} s; q [w, x, y, z] body->world, body rates in body components; "
+        "attitude error against the reference (empty where it is not defined)",
+        s["t"], s["q"], s["omega"], s["attitude_error"], s.get("euler")).encode("utf-8"))
+        for method, s in series.items()]
+
+
+def _trajectory_files(studies, pool) -> dict:
+    """Each study's :func:`trajectory_files` (the text or a future of it): with a pool, this process formats one
+    scenario in (workers + 1) and the workers the others, which are idle by now (formatting the bundled quick report's
+    512 files, 117 MB, took 6.8 s here alone)."""
+    share = (getattr(pool, "_max_workers", 0) or 0) + 1
+    jobs = {st.name: pool.submit(trajectory_files, st.name, st.series) for k, st in enumerate(studies)
+            if pool is not None and k % share}
+    return {st.name: jobs.get(st.name) or trajectory_files(st.name, st.series) for st in studies}
 
 
 # ------------------------------------------------------------------------------------------------
