@@ -54,16 +54,17 @@ def run_cli(capsys, *argv):
 # 1. compiled code is cached per user, outside the installed package
 # ------------------------------------------------------------------------------------------------
 def test_numba_cache_is_outside_the_package(tmp_path):
-    """A compile into an empty cache (a new user) writes there and nothing into the package (where pip would
-    leave it behind on uninstall)."""
+    """A compile into an empty cache (a new user compiling for their CPU: ``XCHECK_NATIVE=1``, the shipped code unused)
+    writes there and nothing into the package (where pip would leave it behind on uninstall)."""
     started = time.time() - 1
     code = ("from xcheck.integrators import integrate; from xcheck import _jit; "
             "integrate('formulation-2', [1, 2, 3], [1, 0, 0, 0], [0.1, 0.2, 0.3], dt=0.1, duration=0.5); "
             "print(_jit.cache_root())")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          env={**os.environ, "XCHECK_CACHE_DIR": str(tmp_path / "cache")})
+                          env={**os.environ, "XCHECK_CACHE_DIR": str(tmp_path / "cache"), "XCHECK_NATIVE": "1"})
     assert proc.returncode == 0, proc.stderr
     root = Path(proc.stdout.strip())
+    assert root.name == f"numba-{xcheck.__version__}-{_jit.sources_digest()}"  # the host's CPU: no -generic
     assert root.parent == tmp_path / "cache" and PACKAGE not in root.parents
     assert list((root / "fields").glob("kernel.*.nbi")) and list((root / "integrators" / "kernels").glob("loops.run_formulation_2__*.nbi"))
     new = [p for p in PACKAGE.rglob("*.nb[ic]") if p.stat().st_mtime >= started]
@@ -76,7 +77,9 @@ def test_cache_folder_is_keyed_by_version_and_sources(monkeypatch, tmp_path):
     try:
         root = _jit.cache_root()
         assert root.parent == tmp_path / "c" and root.name.startswith(f"numba-{xcheck.__version__}-")
-        assert len(root.name.rsplit("-", 1)[1]) == 12
+        assert _jit.GENERIC and root.name.endswith("-generic")  # this process compiles for the generic CPU
+        digest = root.name.split("-")[2]
+        assert len(digest) == 12 and int(digest, 16) >= 0 and digest == _jit.sources_digest()
     finally:
         _jit.cache_root.cache_clear()
 

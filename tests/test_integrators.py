@@ -478,7 +478,7 @@ def test_a_cold_compile_cache_is_seen_and_warmed(tmp_path):
               "after = compile_cache_is_cold()\n"
               "_import(['xcheck.integrators:compile_cache_is_cold'])\n"
               "print(before, after)")
-    env = {**__import__("os").environ, "XCHECK_CACHE_DIR": str(tmp_path)}
+    env = {**__import__("os").environ, "XCHECK_CACHE_DIR": str(tmp_path), "XCHECK_NATIVE": "1"}  # compiled, not shipped
     env.pop("NUMBA_CACHE_DIR", None)
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=300)
     assert out.stdout.split() == ["True", "False"], out.stderr[-2000:]

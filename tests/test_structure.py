@@ -14,7 +14,7 @@ PACKAGE = Path(xcheck.__file__).resolve().parent
 #: The core: mathematics, integrators, references, metrics, fields (docs/architecture.md).
 CORE = ["base", "rotations", "seeds", "body", "trajectory", "fields", "integrators", "reference", "elliptic", "guard",
         "defaults", "metrics", "invariants",
-        "_jit", "paths", "results", "determination.methods", "determination.seed002", "league.boxes", "scoring.earth"]
+        "_jit", "_prebuilt", "paths", "results", "determination.methods", "determination.seed002", "league.boxes", "scoring.earth"]
 
 
 def module_name(path: Path) -> str:
@@ -237,7 +237,7 @@ def test_every_refusal_is_a_user_error_and_exits_2_by_its_type(capsys, monkeypat
 #: The layers of the house, bottom to top (docs/architecture.md): a module may import its own layer and those below,
 #: never one above. A room is a module or a package; the longest name that matches places a module.
 LAYERS = (
-    ("base", "paths", "_jit", ""),  # what everyone uses ("" is xcheck itself: its version)
+    ("base", "paths", "_jit", "_prebuilt", ""),  # what everyone uses ("" is xcheck itself: its version)
     tuple(CORE),  # the mathematics: rotations, integrators, references, fields, metrics
     ("models", "engines", "versions", "torque_terms", "scenario", "model_scenario", "assembly", "runners",
      "determination.sensors", "scoring"),  # bodies, engines, scenarios and what they assemble; files scored

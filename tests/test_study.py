@@ -233,11 +233,13 @@ def test_the_bar_starts_before_the_first_run_ends(scenario):
 
 
 def test_a_first_run_says_it_compiles(monkeypatch, tmp_path):
-    """With an empty compile cache (a machine that never ran this release) the first line says it compiles."""
-    from xcheck import _jit
+    """With an empty compile cache and no shipped code that fits (a machine that never ran this release, another
+    Python) the first line says it compiles."""
+    from xcheck import _jit, _prebuilt
     from xcheck.study import COMPILING, starting
 
     monkeypatch.setenv("XCHECK_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(_prebuilt, "FOLDER", tmp_path / "no-archives")
     _jit.cache_root.cache_clear()
     try:
         calls = []

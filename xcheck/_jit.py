@@ -6,7 +6,11 @@ By default numba caches compiled functions beside their source, in ``__pycache__
 compiled with ``cache=True`` is therefore cached in a per-user folder instead:
 
     ``$XCHECK_CACHE_DIR``, else ``$XDG_CACHE_HOME/xcheck``, else ``~/.cache/xcheck``,
-    then ``numba-<xcheck version>-<hash of the compiled sources>/<the source's folder in the package>``.
+    then ``numba-<xcheck version>-<hash of the compiled sources>-generic/<the source's folder in the package>``.
+
+The code is compiled for the architecture's generic CPU (``-generic``; without that suffix where the process compiles
+for its own CPU): the same code on every machine, which lets a release ship it and a first run unpack it there instead
+of compiling (:mod:`xcheck._prebuilt`).
 
 The hash covers every compiled source file (:data:`COMPILED_SOURCES`) together, because the kernels compile
 the torque code of ``fields/kernel.py`` into themselves and numba checks only a function's own file. A checkout and an
@@ -30,10 +34,10 @@ from numba import njit, prange  # noqa: F401  (re-exported)
 from numba.extending import intrinsic
 from numba.core import caching, config
 
-from . import __version__
+from . import __version__, _prebuilt
 
 __all__ = ["njit", "prange", "numba", "cache_root", "user_cache_home", "compiled_code_loaded", "COMPILED_SOURCES",
-           "stop_requested"]
+           "stop_requested", "GENERIC", "sources_digest"]
 
 PACKAGE = Path(__file__).resolve().parent
 #: The package files with ``cache=True`` functions, relative to the package folder.
@@ -53,13 +57,36 @@ def user_cache_home() -> Path:
     return Path.home() / ".cache" / "xcheck"
 
 
+def _context_made() -> bool:
+    from numba.core.registry import cpu_target
+
+    return vars(cpu_target).get("_toplevel_target_context") is not None
+
+
+#: Whether this process compiles for the generic CPU (:mod:`xcheck._prebuilt`): set here, before numba makes its CPU
+#: context (at the first compiled function's declaration), which reads the CPU it compiles for once per process.
+GENERIC = _prebuilt.choose_target(config, _context_made())
+
+
 @lru_cache(maxsize=1)
-def cache_root() -> Path:
-    """The folder of this release's compiled code (see the module docstring)."""
+def sources_digest() -> str:
+    """12 hex digits of the SHA-256 of the compiled sources, :data:`COMPILED_SOURCES`, together."""
     digest = hashlib.sha256()
     for rel in COMPILED_SOURCES:
         digest.update((PACKAGE / rel).read_bytes())
-    return user_cache_home() / f"numba-{__version__}-{digest.hexdigest()[:12]}"
+    return digest.hexdigest()[:12]
+
+
+@lru_cache(maxsize=1)
+def cache_root() -> Path:
+    """The folder of this release's compiled code (see the module docstring); a new one is first unpacked from the
+    shipped archive where one fits (:mod:`xcheck._prebuilt`)."""
+    root = user_cache_home() / f"numba-{__version__}-{sources_digest()}{'-' + _prebuilt.TARGET if GENERIC else ''}"
+    if GENERIC and not root.exists():
+        archive = _prebuilt.archive_for(root.name, numba.__version__)
+        if archive is not None:
+            _prebuilt.unpack(archive, root)
+    return root
 
 
 class XcheckCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):
