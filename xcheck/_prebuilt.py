@@ -45,11 +45,15 @@ FOLDER = Path(__file__).resolve().parent / "prebuilt"
 TARGET = "generic"
 
 
+def _native_asked() -> bool:
+    return os.environ.get("XCHECK_NATIVE", "") not in ("", "0")
+
+
 def native_wanted(config, context_made: bool) -> bool:
     """Whether this process compiles for the host CPU (see the module docstring): ``XCHECK_NATIVE=1``, numba's CPU or
     cache folder chosen by the user (``config``: ``numba.core.config``; ``NUMBA_CPU_NAME=generic`` with no features is
     xcheck's own choice, which its processes hand down to theirs), or numba's CPU context made already."""
-    return (os.environ.get("XCHECK_NATIVE", "") not in ("", "0") or config.CPU_NAME not in (None, TARGET)
+    return (_native_asked() or config.CPU_NAME not in (None, TARGET)
             or config.CPU_FEATURES not in (None, "") or bool(config.CACHE_DIR) or context_made)
 
 
@@ -61,7 +65,7 @@ def choose_target(config, context_made: bool) -> bool:
         os.environ["NUMBA_CPU_NAME"], os.environ["NUMBA_CPU_FEATURES"] = TARGET, ""
         config.CPU_NAME, config.CPU_FEATURES = TARGET, ""
         return True
-    if (os.environ.get("XCHECK_NATIVE", "") not in ("", "0") and not context_made
+    if (_native_asked() and not context_made
             and os.environ.get("NUMBA_CPU_NAME") == TARGET and not os.environ.get("NUMBA_CPU_FEATURES")):
         os.environ.pop("NUMBA_CPU_NAME")
         os.environ.pop("NUMBA_CPU_FEATURES", None)

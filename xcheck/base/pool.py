@@ -20,7 +20,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 
-__all__ = ["make_pool", "stop_pool", "worker_pool", "ready_workers"]
+__all__ = ["make_pool", "stop_pool", "worker_pool", "ready_workers", "resolved"]
 
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
@@ -126,6 +126,11 @@ def _quiet(wake):
         except OSError:  # its pipe closed by the thread it wakes, which has ended
             pass
     return wakeup
+
+
+def resolved(value):
+    """A task's result: ``value`` itself, or its result where it is a future (work done here or submitted to a pool)."""
+    return value.result() if hasattr(value, "result") else value
 
 
 def ready_workers(pool) -> int:

@@ -15,6 +15,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Callable
 
+from ..base.pool import resolved
 from .render import Section, draw_figures, with_sections
 
 __all__ = ["ReportOutcome", "build_report", "resolve_scenarios", "worker_modules"]
@@ -195,7 +196,7 @@ def determination_section(determinations) -> Section:
 
     blocks, figures, data = [], [], []
     for future in determinations:
-        one, drawn = future.result() if hasattr(future, "result") else future
+        one, drawn = resolved(future)
         data.append(one)
         blocks += determination_blocks(one, [(file, caption) for file, caption, _ in drawn])
         figures += drawn

@@ -19,6 +19,7 @@ from ..base.files import (
     write_json_atomic,
     write_text_atomic,
 )
+from ..base.pool import resolved, stop_pool
 from ..results import outcome_of
 from ..study.statements import accurate_text, invariants_text, usual_place, where_text
 from ..trajectory import step_label
@@ -96,8 +97,6 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
     reports finishing in the same second get distinct names (``<stamp>-2``)."""
     import time
 
-    from ..base.pool import stop_pool
-
     marks = [] if marks is None else marks
     figures = dict(figures or {})
     folder = StampedFolder(out_root, stamp=stamp, on_failure=lambda: stop_pool(pool) if pool is not None else None)
@@ -107,12 +106,11 @@ def write_report(studies, out_root, *, stamp: str | None = None, throughput=None
                 figures[st.name] = (pool.submit(draw_figures, st.data, st.series, quick) if pool is not None
                                     else draw_figures(st.data, st.series, quick))
         for name, files in _trajectory_files(studies, pool).items() if trajectories else ():
-            for file, text in (files.result() if hasattr(files, "result") else files):
+            for file, text in resolved(files):
                 write_bytes_atomic(tmp / "trajectories" / name / file, text)
         captions = {}
         for st in studies:
-            drawn = figures[st.name]
-            drawn = drawn.result() if hasattr(drawn, "result") else drawn
+            drawn = resolved(figures[st.name])
             for file, _, png in drawn:
                 write_bytes_atomic(tmp / "plots" / file, png)
             captions[st.name] = [(file, caption) for file, caption, _ in drawn]
