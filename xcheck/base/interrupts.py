@@ -78,8 +78,11 @@ def _watch(sock) -> None:
         for signum in data:
             if signum in _STOPPING:
                 ARRIVED.append(signum)
-            if signum in _STOPPING or (signum == getattr(signal, "SIGALRM", -1) and SIGNALLED):
-                stop_flag()[0] = signum
+            # the flag as it is, never made here: numpy may be half imported by the main thread at this moment
+            # (a signal in the command's first second: "module 'numpy' has no attribute 'zeros'"), and a compiled
+            # loop runs only once the flag is made and the handler has already raised the interrupt before then
+            if _FLAG and (signum in _STOPPING or (signum == getattr(signal, "SIGALRM", -1) and SIGNALLED)):
+                _FLAG[0][0] = signum
 
 
 def watch_signals() -> bool:
@@ -204,6 +207,19 @@ def _unraisable(hook):
     return on_unraisable
 
 
+def _excepthook(hook):
+    """``sys.excepthook`` for the length of a command: a compiled module whose import calls numpy's ``import_array``
+    prints the error that import met with ``PyErr_Print`` (that is, this hook) before it fails with its own
+    "numpy._core.multiarray failed to import"; an interrupt landing in that import was printed as a traceback of one
+    frame, the handler's (seen in CI: SIGTERM 0.2 s into a report), and is then reported in one line all the same
+    (:data:`SIGNALLED`). Anything else goes to ``hook``."""
+    def on_exception(kind, value, traceback):
+        if isinstance(value, KeyboardInterrupt) and SIGNALLED:
+            return
+        hook(kind, value, traceback)
+    return on_exception
+
+
 def _on_alarm(signum, frame):
     # an interrupt already on its way out (its clean-up, its message) was not swallowed: raising a second one
     # there would escape the handler that says "interrupted" and end the process by the signal (exit -2)
@@ -235,8 +251,8 @@ def stop_repeating() -> None:
 @contextmanager
 def signals_as_interrupts():
     """For the length of a command: SIGINT and SIGTERM raise :class:`KeyboardInterrupt` / :class:`Terminated` in
-    the main thread (a signal before is not ours), repeated once if swallowed; interrupts in ``__del__`` are not
-    printed. Everything is restored as the block ends."""
+    the main thread (a signal before is not ours), repeated once if swallowed; interrupts in ``__del__`` or in a compiled module's
+    import are not printed. Everything is restored as the block ends."""
     previous = None
     SIGNALLED.clear()  # a command run again in the same process (the tests) starts uninterrupted
     ARRIVED.clear()
@@ -248,11 +264,12 @@ def signals_as_interrupts():
                     ((signal.SIGTERM, _on_sigterm), (signal.SIGINT, _on_sigint),
                      *(((signal.SIGALRM, _on_alarm),) if hasattr(signal, "SIGALRM") else ()),
                      *(((WORKER_DIED, _on_worker_died),) if WORKER_DIED is not None else ()))]
-    previous_hook, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
+    previous_hooks = sys.unraisablehook, sys.excepthook
+    sys.unraisablehook, sys.excepthook = _unraisable(sys.unraisablehook), _excepthook(sys.excepthook)
     try:
         yield
     finally:
-        sys.unraisablehook = previous_hook
+        sys.unraisablehook, sys.excepthook = previous_hooks
         if previous is not None:
             stop_repeating()
             for sig, handler in previous:
