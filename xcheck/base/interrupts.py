@@ -201,10 +201,14 @@ def _unraisable(hook):
     printed as "Exception ignored" with its traceback, as it is raised again where the work goes on (see
     :data:`REPEAT_INTERRUPT`). Anything else goes to ``hook``."""
     def on_unraisable(unraisable):
-        if isinstance(unraisable.exc_value, KeyboardInterrupt) and SIGNALLED:
-            return
-        hook(unraisable)
+        if not _being_reported(unraisable.exc_value):
+            hook(unraisable)
     return on_unraisable
+
+
+def _being_reported(value) -> bool:
+    """Whether ``value`` is the interrupt the command is reporting (in one line, not as a traceback)."""
+    return isinstance(value, KeyboardInterrupt) and bool(SIGNALLED)
 
 
 def _excepthook(hook):
@@ -214,9 +218,8 @@ def _excepthook(hook):
     frame, the handler's (seen in CI: SIGTERM 0.2 s into a report), and is then reported in one line all the same
     (:data:`SIGNALLED`). Anything else goes to ``hook``."""
     def on_exception(kind, value, traceback):
-        if isinstance(value, KeyboardInterrupt) and SIGNALLED:
-            return
-        hook(kind, value, traceback)
+        if not _being_reported(value):
+            hook(kind, value, traceback)
     return on_exception
 
 
@@ -251,8 +254,8 @@ def stop_repeating() -> None:
 @contextmanager
 def signals_as_interrupts():
     """For the length of a command: SIGINT and SIGTERM raise :class:`KeyboardInterrupt` / :class:`Terminated` in
-    the main thread (a signal before is not ours), repeated once if swallowed; interrupts in ``__del__`` or in a compiled module's
-    import are not printed. Everything is restored as the block ends."""
+    the main thread (a signal before is not ours), repeated once if swallowed; interrupts in ``__del__`` or in a
+    compiled module's import are not printed. Everything is restored as the block ends."""
     previous = None
     SIGNALLED.clear()  # a command run again in the same process (the tests) starts uninterrupted
     ARRIVED.clear()
