@@ -190,23 +190,22 @@ def suite(env) -> float:
     return elapsed
 
 
-def fresh_clone(tmp: Path) -> list[tuple[str, float, str, bool]]:
-    """README lines 1 and 2, in order, in a fresh clone with an empty compile cache (as a newcomer runs them)."""
+def fresh_clone(tmp: Path):
+    """README lines 1 and 2, in order, in a fresh clone with an empty compile cache (as a newcomer runs them): each
+    row as its line ends."""
     readme = (ROOT / "README.md").read_text().splitlines()
     commands = [line.strip() for line in readme if line.strip().startswith(("python3 -m venv", "python -m venv"))][:2]
     clone = tmp / "clone"
     subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
     env = {**os.environ, "XCHECK_CACHE_DIR": str(tmp / "cache")}
     env.pop("VIRTUAL_ENV", None)
-    lines = []
     for k, (command, goal) in enumerate(zip(commands, (60.0, 150.0)), start=1):
         t0 = time.perf_counter()
         proc = subprocess.run(["bash", "-c", command], cwd=clone, env=env, capture_output=True, text=True)
         elapsed = time.perf_counter() - t0
         if proc.returncode != 0:
             sys.exit(f"README line {k} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
-        lines.append((f"README line {k} on a fresh clone [s]", elapsed, f"<= {goal:g}", elapsed <= goal))
-    return lines
+        yield f"README line {k} on a fresh clone [s]", elapsed, f"<= {goal:g}", elapsed <= goal
 
 
 def cold_converge(tmp: Path, repeat: int) -> list[tuple[str, float, str, bool]]:
@@ -222,12 +221,28 @@ def cold_converge(tmp: Path, repeat: int) -> list[tuple[str, float, str, bool]]:
     return [("xcheck converge gyroscope-nonsingular --quick, empty compile cache [s]", best, "<= 10", best <= 10)]
 
 
-def print_table(lines) -> None:
-    width = max(len(w) for w, *_ in lines)
-    print(f"| {'what':{width}s} | {'measured':>10s} | {'goal':>9s} |     |")
-    print(f"| {'-' * width} | {'-' * 10}:| {'-' * 9}:| --- |")
-    for what, value, goal, met in lines:
-        print(f"| {what:{width}s} | {value:10.3g} | {goal:>9s} | {'met' if met else 'NOT MET'} |")
+WIDTH = 78  # the "what" column; a longer row widens its own line only
+
+
+class Rows(list):
+    """The table's rows, each printed as it is measured (a run cut short still shows what it measured): the header
+    with the first row, then one line per row."""
+
+    def append(self, row) -> None:
+        if not self:
+            print(f"| {'what':{WIDTH}s} | {'measured':>10s} | {'goal':>9s} |     |")
+            print(f"| {'-' * WIDTH} | {'-' * 10}:| {'-' * 9}:| --- |")
+        what, value, goal, met = row
+        print(f"| {what:{WIDTH}s} | {value:10.3g} | {goal:>9s} | {'met' if met else 'NOT MET'} |", flush=True)
+        super().append(row)
+
+    def extend(self, rows) -> None:
+        for row in rows:
+            self.append(row)
+
+    def __iadd__(self, rows):
+        self.extend(rows)
+        return self
 
 
 def main(argv=None) -> int:
@@ -240,13 +255,14 @@ def main(argv=None) -> int:
     ways = [("with Basilisk", {}), ("without", WITHOUT)] if basilisk_installed() else [("without Basilisk", {})]
     tmp = Path(tempfile.mkdtemp(prefix="xcheck-speed-"))
     if args.fresh:  # the newcomer's rows alone (issue 61)
+        lines = Rows()
         try:
-            lines = cold_converge(tmp, max(1, args.repeat - 1)) + fresh_clone(tmp)
+            lines += cold_converge(tmp, max(1, args.repeat - 1))
+            lines += fresh_clone(tmp)
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
-        print_table(lines)
         return 0
-    lines = []
+    lines = Rows()
     try:
         subprocess.run([*XCHECK, "report", "--quick", "--out", str(tmp / "warm")], capture_output=True)  # warm
         for way, env in ways:
@@ -283,7 +299,6 @@ def main(argv=None) -> int:
                 lines.append((f"the test suite, -n auto [s], {way}", t, "<= 120", t <= 120))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    print_table(lines)
     return 0
 
 
