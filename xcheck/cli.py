@@ -22,6 +22,7 @@ import warnings
 from . import __version__
 from .commands.arguments import DURATION_HELP
 from .base import interrupts
+from .base.exits import EXIT_INTERRUPTED, EXIT_TERMINATED, stopped_line  # noqa: F401 (the codes: cli's names)
 from .base.errors import UsageError, UserError  # noqa: F401 (UsageError: imported from here before issue 38)
 from .base.interrupts import (
     Progress,
@@ -33,7 +34,7 @@ from .base.interrupts import (
 
 _STARTED = time.perf_counter()  # when the command line was imported: the baseline of --timings
 
-EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_BUG, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 3, 130, 143
+EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_BUG = 0, 1, 2, 3
 #: A study that cannot decide (issue 36): its steps show no asymptotic range, its reference is suspect or less
 #: certain than a check, or it tests nothing; and no check failed.
 EXIT_INCONCLUSIVE = 4
@@ -283,9 +284,9 @@ def _interrupted(exc: KeyboardInterrupt, written) -> int:
     # "unhandled" even once it is caught, and ``python -m xcheck`` then ends by the signal (-2), not with 130.
     # Every string exec clears that mark as it starts.
     exec("pass", {})
-    what = f"the report {written} is complete" if written else "no report was written"
-    print(f"\nxcheck: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}; {what}", file=sys.stderr)
-    return EXIT_TERMINATED if isinstance(exc, Terminated) else EXIT_INTERRUPTED
+    code = EXIT_TERMINATED if isinstance(exc, Terminated) else EXIT_INTERRUPTED
+    print(stopped_line(code, written), file=sys.stderr)
+    return code
 
 
 def _run(args) -> int:
