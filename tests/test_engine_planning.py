@@ -183,3 +183,29 @@ def test_a_method_at_round_off_within_two_steps_is_not_failed_for_being_fast():
     slow_pair = MethodResult(name="m", engine="x", expected_order=6, runs=fast.runs, observed_order=9.23,
                              local_orders=[12.5, 5.9], order_note="median")
     assert not _order(slow_pair, DEFAULT_CHECKS, {}).passed
+
+
+def test_a_converge_starts_a_worker_only_for_the_costly_engines_it_runs_and_imports_only_those():
+    """Truth: the engines' own declarations (``to_workers``, ``warm``): a worker starts beside this process only where
+    the study has costly engines' methods and work of its own meanwhile, and it imports only the engines named."""
+    from xcheck.commands.studies import converge_workers
+    from xcheck.engines import available
+    from xcheck.study.executor import worker_modules
+
+    costly = [e.name for e in ENGINES.values() if e.to_workers and available(e.name)]
+    if not costly:
+        pytest.skip("no engine whose import is costly is installed (pip install 'xcheck[basilisk,engines]')")
+    assert converge_workers(None, None) == (1, None)  # the scenario's methods: ours here, the engines there
+    assert converge_workers("lie-rkmk4,mujoco-rk4", None) == (0, [])  # nothing costly: this process alone
+    one = costly[0]
+    method = next(m for m, r in RUNNERS.items() if r.engine == one)
+    assert converge_workers(method, None) == (0, [one])  # the engine alone: a worker would only add its imports
+    assert converge_workers(f"lie-rkmk4,{method}", None) == (1, [one])
+    assert converge_workers(f"lie-rkmk4,{method}", 1) == (0, [one])  # --workers 1: this process alone
+    assert converge_workers(f"lie-rkmk4,{method}", 3) == (2, [one])
+    warm = worker_modules(figures=False, engines=[one])
+    assert set(ENGINES[one].warm) <= set(warm) and "xcheck.study" in warm and "xcheck.report.plots" not in warm
+    others = {m for e in ENGINES.values() if e.name != one for m in e.warm}
+    assert not others & set(warm), others & set(warm)
+    assert {m for name in costly for m in ENGINES[name].warm} <= set(worker_modules(figures=True))
+    assert "xcheck.report.plots" in worker_modules(figures=True)

@@ -58,7 +58,7 @@ def horizon(*, scenario: str, duration: str | None, steps: str | None, methods: 
     from contextlib import nullcontext
 
     from ..base.pool import worker_pool
-    from ..report.build import worker_modules
+    from ..study.executor import worker_modules
 
     two = (workers or min(2, os.cpu_count() or 1)) >= 2  # the runs shared by this process and one worker
     try:

@@ -112,16 +112,35 @@ def converge(*, scenario: str, methods: str | None, steps: str | None, quick: bo
     each pay 1-1.5 s of imports and compiled-code loading before their first run, except for the methods of an
     engine whose import is costly (Basilisk's: 0.5 s more, and the longest runs). With one installed (and not left
     out by ``methods``) one worker starts before anything is imported here, imports it, and runs its methods while
-    this process runs the rest. ``workers`` N: that many processes for the whole study; 1: this process alone."""
+    this process runs the rest (:func:`converge_workers`). ``workers`` N: that many processes for the whole study;
+    1: this process alone."""
     from ..base.pool import worker_pool
-    from ..engines import ENGINES, available
-    from ..report.build import worker_modules
+    from ..study.executor import worker_modules
 
-    costly = any(e.to_workers and available(e.name) and (methods is None or e.name in methods)
-                 for e in ENGINES.values())
-    size = workers - 1 if workers and workers > 1 else (1 if workers is None and costly else 0)
-    with worker_pool(size, warm=worker_modules(figures=False)) if size else nullcontext() as pool:
+    size, engines = converge_workers(methods, workers)
+    with worker_pool(size, warm=worker_modules(figures=False, engines=engines)) if size else nullcontext() as pool:
         return _converge(scenario, methods, steps, quick, json, out, pool, ctx, duration, tolerance)
+
+
+def converge_workers(methods: str | None, workers: int | None) -> tuple[int, list | None]:
+    """``(workers beside this process, the engines they import as they start)`` for a converge of ``--methods``
+    ``methods`` (None: the scenario's) and ``--workers`` ``workers`` (see :func:`converge`). The methods are read
+    by their engines' prefixes here, before anything is imported; their names are checked once the scenario is
+    read. A worker imports only the engines ``methods`` names (``None``: every one installed whose import is
+    costly); where every method named is such an engine's, no worker starts (this process would only wait for its
+    imports: ``--methods drake-rk3`` 2.1 -> 1.1 s)."""
+    from ..engines import ENGINES, available
+
+    costly = [e.name for e in ENGINES.values() if e.to_workers and available(e.name)]
+    if methods is None:
+        engines = None
+        beside = True
+    else:
+        prefixes = {m.strip().split("-", 1)[0] for m in methods.split(",")}
+        costly = engines = [name for name in costly if name in prefixes]
+        beside = any(p not in costly for p in prefixes)  # ours, MuJoCo's: this process's work meanwhile
+    size = workers - 1 if workers and workers > 1 else (1 if workers is None and costly and beside else 0)
+    return size, engines
 
 
 def _converge(name, methods, steps, quick, json, out, pool, ctx, duration=None, tolerance=None) -> StudyOutcome:

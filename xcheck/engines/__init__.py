@@ -124,9 +124,10 @@ def available(engine: str) -> bool:
     return not left_out(engine) and installed(engine)
 
 
-def warm_modules() -> tuple:
-    """What a worker imports as it starts for the engines available here."""
-    return tuple(m for engine in ENGINES.values() if available(engine.name) for m in engine.warm)
+def warm_modules(engines=None) -> tuple:
+    """What a worker imports as it starts for the engines available here (of ``engines`` alone, when given)."""
+    return tuple(m for engine in ENGINES.values() if available(engine.name) and (engines is None or engine.name in
+                                                                                  engines) for m in engine.warm)
 
 
 #: engine name -> the distribution whose version a report records

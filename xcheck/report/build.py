@@ -16,19 +16,10 @@ from types import MappingProxyType
 from typing import Callable
 
 from ..base.pool import resolved
+from ..study.executor import worker_modules
 from .render import Section, draw_figures, with_sections
 
-__all__ = ["ReportOutcome", "build_report", "resolve_scenarios", "worker_modules"]
-
-
-def worker_modules(figures: bool = True) -> tuple:
-    """What a worker imports as it starts: the study (and, on a cold compile cache, some of our kernels compiled:
-    :func:`xcheck.integrators.precompile_for_worker`), the engines available here
-    (:func:`xcheck.engines.warm_modules`) and matplotlib's plots (``figures``)."""
-    from ..engines import warm_modules
-
-    return ("xcheck.study", "xcheck.integrators:precompile_for_worker") + warm_modules() + (
-        ("xcheck.report.plots",) if figures else ())
+__all__ = ["ReportOutcome", "build_report", "resolve_scenarios"]
 
 
 def resolve_scenarios(names, resolve=None) -> list:
@@ -102,7 +93,7 @@ def build_report(scenarios, out, *, quick: bool = False, workers: int | None = N
     # compiled-code loading), started first so that the workers import numpy, numba, MuJoCo, matplotlib (and
     # Basilisk) while this process imports its own
     size = max(1, (workers or os.cpu_count() or 2) - 1)
-    with worker_pool(size, warm=worker_modules()) if workers != 1 else nullcontext() as pool:
+    with worker_pool(size, warm=worker_modules(figures=True)) if workers != 1 else nullcontext() as pool:
         from ..base.files import check_output_dir
         from ..scenario import Scenario
         from ..study import run_studies, throughput_rows

@@ -7,7 +7,7 @@ from concurrent.futures import FIRST_COMPLETED, as_completed, wait
 from itertools import groupby
 
 from ..base.pool import ready_workers, worker_pool
-from ..engines import ENGINES
+from ..engines import ENGINES, warm_modules
 from ..runners import RUNNERS
 
 __all__ = ["map_tasks", "prefer_here", "COLD_WORKER_TASKS"]
@@ -119,3 +119,13 @@ def _map_here(fn, tasks, pool, record, prefer, idle=None) -> None:
                 continue
         i = pending.pop()
         record(i, fn(*tasks[i]))
+
+
+def worker_modules(figures: bool, engines=None) -> tuple:
+    """What a worker imports as it starts: the study (and, on a cold compile cache, some of our kernels compiled:
+    :func:`xcheck.integrators.precompile_for_worker`), the engines available here
+    (:func:`xcheck.engines.warm_modules`; of ``engines`` alone, when given) and matplotlib's plots (``figures``: a report's workers, which draw).
+    Here, not in the report: a command that draws nothing (converge, horizon) no longer imports the report's
+    modules and matplotlib (0.5 s) to name them."""
+    return ("xcheck.study", "xcheck.integrators:precompile_for_worker") + warm_modules(engines) + (
+        ("xcheck.report.plots",) if figures else ())
