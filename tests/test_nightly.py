@@ -70,22 +70,47 @@ def _files(folder: Path) -> dict:
     return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
-def test_two_runs_then_an_injected_regression_exits_1_and_names_it(tmp_path):
-    """Runs 1 and 2 pass into a fresh history (exit 0). Then the stored lie-rkmk4 errors are patched 10^4
-    smaller (so that this run's are 10^4 larger than the baseline's) and the scenario's agreement tolerance made
-    impossible (1e-30 rad): run 3 exits 1 and names both, in its output and in its report."""
-    out, scenario = tmp_path / "reports", _scenario_copy(tmp_path)
+@pytest.fixture(scope="module")
+def series(tmp_path_factory):
+    """One history of three nightlies, the questions of several tests asked of it (issue 61: a run per question,
+    not per test). Run 1 and run 2 (``--baseline 1``) pass; between them ``--baseline 7`` is refused. Then the stored
+    lie-rkmk4 errors are patched 10^4 smaller (so that this run's are 10^4 larger than the baseline's) and the
+    scenario's agreement tolerance made impossible (1e-30 rad) for run 3. Every run with ``--keep 2``. What each test
+    reads is kept as it was when its run ended: ``procs``, ``results`` (run -> its results.json), ``after_run_1``
+    (the history's files then)."""
+    folder = tmp_path_factory.mktemp("series")
+    out, scenario = folder / "reports", _scenario_copy(folder)
+    procs, results = {}, {}
+    procs[1] = _nightly(scenario, "--out", out, "--keep", "2")
+    after_run_1 = _files_of_history(out)
+    procs[2] = _nightly(scenario, "--out", out, "--keep", "2", "--baseline", "1")
     for n in (1, 2):
-        proc = _nightly(scenario, "--out", out)
-        assert proc.returncode == 0, proc.stdout + proc.stderr
-        assert f"nightly: run {n} recorded in {out / 'history.sqlite'}" in proc.stdout
-    assert "the first run of its series" not in proc.stdout
+        assert procs[n].returncode == 0, procs[n].stdout + procs[n].stderr
+    results[2] = json.loads((out / "latest" / "results.json").read_text())
+    procs["baseline 7"] = _nightly(scenario, "--out", out, "--keep", "2", "--baseline", "7")
     con = sqlite3.connect(out / "history.sqlite")
     con.execute("UPDATE metrics SET value = value * 1e-4 WHERE method = 'lie-rkmk4' AND metric = 'attitude_error'")
     con.commit()
     con.close()
-    _scenario_copy(tmp_path, "\n[checks]\nagreement = 1e-30\n")
-    proc = _nightly(scenario, "--out", out)
+    _scenario_copy(folder, "\n[checks]\nagreement = 1e-30\n")
+    procs[3] = _nightly(scenario, "--out", out, "--keep", "2")
+    results[3] = json.loads((out / "latest" / "results.json").read_text())
+    return {"out": out, "procs": procs, "results": results, "after_run_1": after_run_1}
+
+
+def _files_of_history(out: Path) -> dict:
+    """The history's files (SQLite's own beside it too, if any) as they are now: name -> bytes."""
+    return {p.name: p.read_bytes() for p in out.glob("history.sqlite*")}
+
+
+def test_two_runs_then_an_injected_regression_exits_1_and_names_it(series):
+    """Runs 1 and 2 pass into a fresh history (exit 0); run 3, against errors patched 10^4 smaller and an
+    impossible agreement tolerance (:func:`series`), exits 1 and names both, in its output and in its report."""
+    out, procs = series["out"], series["procs"]
+    for n in (1, 2):
+        assert f"nightly: run {n} recorded in {out / 'history.sqlite'}" in procs[n].stdout
+    assert "the first run of its series" not in procs[2].stdout
+    proc = procs[3]
     assert proc.returncode == 1, proc.stdout + proc.stderr
     check = f"REGRESSION: {SCENARIO} / agreement:mujoco-rk4: check passed -> failed"
     error = re.compile(rf"REGRESSION: {SCENARIO} / lie-rkmk4 at dt = 0.015625 s: attitude error \S+ -> \S+")
@@ -95,8 +120,7 @@ def test_two_runs_then_an_injected_regression_exits_1_and_names_it(tmp_path):
     assert "## History — ❌ regression" in report
     assert f"| ❌ REGRESSION | {SCENARIO} | agreement:mujoco-rk4 |" in report
     assert f"| ❌ REGRESSION | {SCENARIO} | lie-rkmk4 | 1/64 | attitude error [rad] |" in report
-    results = json.loads((out / "latest" / "results.json").read_text())
-    lines = [c["line"] for c in results["history"][0]["since_baseline"] if c["regression"]]
+    lines = [c["line"] for c in series["results"][3]["history"][0]["since_baseline"] if c["regression"]]
     assert check in lines
     with H.open_history(out / "history.sqlite", read_only=True) as hist:
         runs = hist.runs()
@@ -221,14 +245,12 @@ def test_two_nightlies_at_once_both_land(tmp_path):
     assert {r["report"] for r in runs} == {str(p.resolve()) for p in out.iterdir() if re.match(r"\d{8}T", p.name)}
 
 
-def test_baseline_run_id_compares_with_that_run(tmp_path):
-    out = tmp_path / "reports"
-    assert _nightly(_scenario_copy(tmp_path), "--out", out).returncode == 0
-    proc = _nightly(_scenario_copy(tmp_path), "--out", out, "--baseline", "1")
-    assert proc.returncode == 0, proc.stderr
-    results = json.loads((out / "latest" / "results.json").read_text())
+def test_baseline_run_id_compares_with_that_run(series):
+    """Run 2 of :func:`series`, ``--baseline 1``, is compared with run 1; ``--baseline 7`` is refused naming the
+    runs there are."""
+    results = series["results"][2]
     assert results["history"][0]["baseline"] == "run 1" and results["history"][0]["baseline_runs"] == [1]
-    proc = _nightly(_scenario_copy(tmp_path), "--out", out, "--baseline", "7")
+    proc = series["procs"]["baseline 7"]
     assert proc.returncode == 2 and "--baseline 7: no such run" in proc.stderr and "runs 1-2" in proc.stderr
 
 
@@ -277,19 +299,23 @@ def test_two_nightlies_pruning_at_once_name_only_what_each_removed(tmp_path, mon
     assert sorted(p.name for p in root.iterdir()) == [old[2].name]
 
 
-def test_keep_on_the_command_line(tmp_path):
-    out = tmp_path / "reports"
-    for _ in range(3):
-        assert _nightly(_scenario_copy(tmp_path), "--out", out, "--keep", "2").returncode == 0
+def test_keep_on_the_command_line(series):
+    """Three runs of :func:`series` with ``--keep 2``: the two newest report folders are kept, ``latest`` the last;
+    the history keeps every run."""
+    out = series["out"]
     reports = sorted(p.name for p in out.iterdir() if re.match(r"\d{8}T", p.name))
     assert len(reports) == 2 and (out / "latest").resolve().name == reports[-1]
     with H.open_history(out / "history.sqlite", read_only=True) as hist:
         assert len(hist.runs()) == 3  # the history keeps every run
 
 
-def test_a_killed_nightly_records_nothing_and_leaves_the_history_readable(tmp_path):
+def test_a_killed_nightly_records_nothing_and_leaves_the_history_readable(tmp_path, series):
+    """A history of one run (:func:`series` after its run 1, copied), then a nightly interrupted while its studies
+    run: exit 130, the history byte for byte as it was, one run."""
     out = tmp_path / "reports"
-    assert _nightly(_scenario_copy(tmp_path), "--out", out).returncode == 0
+    out.mkdir()
+    for name, data in series["after_run_1"].items():
+        (out / name).write_bytes(data)
     before = (out / "history.sqlite").read_bytes()
     p = _nightly(_scenario_copy(tmp_path), "--out", out, "--workers", "2", popen=True)  # (the last --workers counts)
     from test_abuse import _children, _wait_for
