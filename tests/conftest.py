@@ -61,8 +61,8 @@ def package_index():
 CORE = frozenset(f"test_{name}.py" for name in (
     "rotations", "integrators", "reference", "reference_properties", "truth", "metrics", "invariants", "trajectory",
     "body", "fields", "surface_torques", "gravity_gradient", "seeds", "split", "lgvi", "heavy_top", "gyrostat",
-    "study", "results", "json_text", "scoring", "determination", "your_step", "timing_and_advice", "models",
-    "scenario", "sweep_spec", "sensing", "implicitfast_damping", "structure"))
+    "study", "study_store", "results", "json_text", "scoring", "determination", "your_step", "timing_and_advice",
+    "models", "scenario", "sweep_spec", "sensing", "implicitfast_damping", "structure"))
 
 
 def pytest_collection_modifyitems(config, items):
@@ -75,7 +75,9 @@ def pytest_collection_modifyitems(config, items):
 def pytest_configure(config):
     """On an empty compile cache (the suite run first on a machine, before any report), compile the integrators'
     kernels once, in two processes, before the workers start: otherwise every worker's first tests compile the same
-    kernels at the same time (25 s of CPU each, the same work twice; 170 -> 153 s wall here)."""
+    kernels at the same time (25 s of CPU each, the same work twice; 170 -> 153 s wall here). And the bundled
+    scenarios' items read the quick report's studies (:class:`_BundledItemsReadTheStore`)."""
+    config.pluginmanager.register(_BundledItemsReadTheStore(), "xcheck-suite-study-store")
     if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
         return  # a worker, or a run without xdist: each compiles what it needs
     from xcheck.integrators import METHODS, compile_cache_is_cold
@@ -125,8 +127,38 @@ def bundled_quick_report(tmp_path_factory):
     command (its return code, stdout and stderr), ``out`` the ``--out`` folder. Read it; do not change it."""
     def make(folder):
         proc = subprocess.run([sys.executable, "-m", "xcheck", "report", "--quick", "--trajectories", "--out",
-                               str(folder / "reports")], capture_output=True, text=True)
+                               str(folder / "reports")], capture_output=True, text=True,
+                              env={**os.environ, STUDY_STORE: str(_studies(tmp_path_factory))})
         return {"args": proc.args, "returncode": proc.returncode, "stdout": proc.stdout, "stderr": proc.stderr}
 
-    folder, done = shared_result(tmp_path_factory, "bundled-quick-report", make)
+    folder, done = shared_result(tmp_path_factory, "bundled-quick-report", make)  # its studies kept: see below
     return subprocess.CompletedProcess(**done), folder / "reports"
+
+
+from xcheck.study.store import ENV as STUDY_STORE  # noqa: E402
+
+
+def _studies(tmp_path_factory):
+    """The folder where this pytest run's quick report keeps its studies (:mod:`xcheck.study.store`)."""
+    return _session_root(tmp_path_factory) / "studies"
+
+
+class _BundledItemsReadTheStore:
+    """The bundled scenarios' own items (the plugin's, ``models/scenarios/*.toml``) judge the study the quick report
+    (:func:`bundled_quick_report`) ran of the same scenario, where it already has: the same study, asked twice in a
+    run of the suite, is run once (issue 61). Where it has not (yet), the item runs it, as the plugin does for a
+    user. For these items alone, for the length of their call: no process the suite starts sees the store.
+    Registered as a plugin (:func:`pytest_configure`): a conftest's own hooks reach only the items below it."""
+
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_call(self, item):
+        from xcheck.pytest_plugin import CheckItem
+
+        if not (isinstance(item, CheckItem) and item.path.parent == item.config.rootpath / "models" / "scenarios"):
+            yield
+            return
+        os.environ[STUDY_STORE] = str(_studies(item.config._tmp_path_factory))
+        try:
+            yield
+        finally:
+            os.environ.pop(STUDY_STORE, None)

@@ -32,6 +32,7 @@ from .executor import map_tasks, prefer_here
 from .files import score_trajectories
 from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_methods
 from .statements import accuracy, consistency
+from .store import keep, stored, study_key
 from .your_step import your_step_answer
 
 __all__ = ["run_study", "run_studies", "starting", "COMPILING", "assemble", "StudyResult", "PLOT_SAMPLE_DT",
@@ -249,14 +250,20 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     # the engines' step budgets hold for the scenario's steps, not for steps asked for by name
     planned = {m: (tuple(steps), (), "") if steps_given else method_steps(scenario, m, steps, quick=quick)
                for m in methods}
+    key = study_key(scenario, methods, steps, tolerances, quick and not steps_given)
+    kept = stored(key, timing)
+    if kept is not None:
+        return kept
     tasks = study_tasks(scenario, methods, planned, tolerances, timing)
     starting(progress, len(tasks))
     guard_references([scenario])
     done = map_tasks(run_methods, tasks, workers=workers, progress=progress, pool=pool,
                      labels=[_label(task) for task in tasks], here=prefer_here if here else None)
     by_method = {r.method: r for task_runs in done for r in task_runs}
-    return score_trajectories(about_the_model(assemble(scenario, steps, [by_method[m] for m in methods],
-                                                       quick=quick and not steps_given, planned=planned), quick))
+    st = score_trajectories(about_the_model(assemble(scenario, steps, [by_method[m] for m in methods],
+                                                     quick=quick and not steps_given, planned=planned), quick))
+    keep(key, st, timing)
+    return st
 
 
 def study_tasks(scenario: Scenario, methods, planned: dict, tolerances, timing: bool = True) -> list[tuple]:
@@ -325,6 +332,8 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
             sc, methods, steps, planned = plans[k]
             studies[k] = score_trajectories(about_the_model(assemble(sc, steps, [results[k][m] for m in methods],
                                                                      quick=quick, planned=planned), quick))
+            keep(study_key(sc, methods, steps, sc.quick_tolerances if quick else sc.tolerances, quick), studies[k],
+                 True)
             if on_study:
                 on_study(studies[k])
 

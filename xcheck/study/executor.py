@@ -124,7 +124,8 @@ def _map_here(fn, tasks, pool, record, prefer, idle=None) -> None:
 def worker_modules(figures: bool, engines=None) -> tuple:
     """What a worker imports as it starts: the study (and, on a cold compile cache, some of our kernels compiled:
     :func:`xcheck.integrators.precompile_for_worker`), the engines available here
-    (:func:`xcheck.engines.warm_modules`; of ``engines`` alone, when given) and matplotlib's plots (``figures``: a report's workers, which draw).
+    (:func:`xcheck.engines.warm_modules`; of ``engines`` alone, when given) and matplotlib's plots (``figures``: a
+    report's workers, which draw).
     Here, not in the report: a command that draws nothing (converge, horizon) no longer imports the report's
     modules and matplotlib (0.5 s) to name them."""
     return ("xcheck.study", "xcheck.integrators:precompile_for_worker") + warm_modules(engines) + (
