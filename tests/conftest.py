@@ -125,13 +125,19 @@ def bundled_quick_report(tmp_path_factory):
     """``xcheck report --quick --trajectories`` of every bundled scenario, in a process of its own, once per pytest
     run (test_cli's checks of the main job, test_history's stored report): ``(proc, out)``, ``proc`` the finished
     command (its return code, stdout and stderr), ``out`` the ``--out`` folder. Read it; do not change it."""
+    return _bundled_quick_report(tmp_path_factory)
+
+
+def _bundled_quick_report(tmp_path_factory):
+    """:func:`bundled_quick_report`'s value, made by whichever process of the run asks first (a test of test_cli, or
+    the first bundled scenario's item: :class:`_BundledItemsReadTheStore`); its studies are kept in the run's store."""
     def make(folder):
         proc = subprocess.run([sys.executable, "-m", "xcheck", "report", "--quick", "--trajectories", "--out",
                                str(folder / "reports")], capture_output=True, text=True,
                               env={**os.environ, STUDY_STORE: str(_studies(tmp_path_factory))})
         return {"args": proc.args, "returncode": proc.returncode, "stdout": proc.stdout, "stderr": proc.stderr}
 
-    folder, done = shared_result(tmp_path_factory, "bundled-quick-report", make)  # its studies kept: see below
+    folder, done = shared_result(tmp_path_factory, "bundled-quick-report", make)
     return subprocess.CompletedProcess(**done), folder / "reports"
 
 
@@ -145,10 +151,12 @@ def _studies(tmp_path_factory):
 
 class _BundledItemsReadTheStore:
     """The bundled scenarios' own items (the plugin's, ``models/scenarios/*.toml``) judge the study the quick report
-    (:func:`bundled_quick_report`) ran of the same scenario, where it already has: the same study, asked twice in a
-    run of the suite, is run once (issue 61). Where it has not (yet), the item runs it, as the plugin does for a
-    user. For these items alone, for the length of their call: no process the suite starts sees the store.
-    Registered as a plugin (:func:`pytest_configure`): a conftest's own hooks reach only the items below it."""
+    (:func:`bundled_quick_report`) ran of the same scenario: the same study, asked twice in a run of the suite, is
+    run once (issue 61). The first of them makes the report if no process has yet, or waits for the one making it
+    (xdist hands out these files first, having the most items; the report's own two workers keep both cores busy
+    meanwhile). A study the report could not keep (it failed; a selection of methods) the item runs, as the plugin
+    does for a user. The store is set for these items alone, for the length of their call: no process the suite
+    starts sees it. Registered as a plugin (:func:`pytest_configure`): a conftest's hooks reach only items below it."""
 
     @pytest.hookimpl(hookwrapper=True)
     def pytest_runtest_call(self, item):
@@ -157,6 +165,7 @@ class _BundledItemsReadTheStore:
         if not (isinstance(item, CheckItem) and item.path.parent == item.config.rootpath / "models" / "scenarios"):
             yield
             return
+        _bundled_quick_report(item.config._tmp_path_factory)
         os.environ[STUDY_STORE] = str(_studies(item.config._tmp_path_factory))
         try:
             yield
