@@ -72,20 +72,12 @@ def test_a_failing_check_says_what_was_measured(pytester):
     assert re.search(r"worse of the two errors [0-9.]+e-[0-9]+ rad; limit 1e-16 rad", message), message
 
 
-def test_a_broken_file_is_one_failing_item_among_good_ones(pytester):
+def test_broken_files_are_one_failing_item_each_among_good_ones(pytester):
+    """A broken scenario file, and (issue 37, 4) three broken xcheck_*.xml files, which once aborted the session
+    ("Interrupted: 3 errors during collection") so that none of the good files ran: each is now one failing item with
+    the CLI's refusal, and the good file's items pass. One run of pytest asks it of all four (issue 61)."""
     _scenario_file(pytester)
     (pytester.path / "xcheck_broken.toml").write_text('name = "broken"\nmodel = 3\n')
-    result = _run(pytester, "-q")
-    result.assert_outcomes(passed=7, failed=1)
-    text = result.stdout.str()
-    assert "FAILED xcheck_broken.toml::scenario" in text
-    assert "xcheck_broken.toml: model: expected a string, got int 3" in text  # the CLI's message
-
-
-def test_broken_mjcf_files_are_one_failing_item_each_among_good_ones(pytester):
-    """Issue 37, 4: three broken xcheck_*.xml files aborted the session ("Interrupted: 3 errors during collection"),
-    so none of the good files ran. Now each is one failing item with the CLI's refusal; the good file's items pass."""
-    _scenario_file(pytester)
     (pytester.path / "xcheck_notxml.xml").write_text("<mujoco><worldbody><body>")
     (pytester.path / "xcheck_twojoints.xml").write_text(
         '<mujoco><worldbody><body><freejoint/><geom size="0.1" contype="0" conaffinity="0"/></body>'
@@ -94,9 +86,11 @@ def test_broken_mjcf_files_are_one_failing_item_each_among_good_ones(pytester):
         '<mujoco><option gravity="0 0 0"/><worldbody><body><freejoint/><inertial pos="0 0 0" mass="1" '
         'diaginertia="1 2 3"/></body></worldbody><keyframe><key qvel="0 0 0 nan 0 1"/></keyframe></mujoco>')
     result = _run(pytester, "-q")
-    result.assert_outcomes(passed=7, failed=3)
+    result.assert_outcomes(passed=7, failed=4)
     text = result.stdout.str()
     assert "errors during collection" not in text and "Interrupted" not in text, text
+    assert "FAILED xcheck_broken.toml::scenario" in text
+    assert "xcheck_broken.toml: model: expected a string, got int 3" in text  # the CLI's message
     for name, needle in (("notxml", "MuJoCo could not load it"), ("twojoints", "a multi-body model: 2 moving bodies"),
                          ("nanrate", "contains non-finite values")):
         assert f"FAILED xcheck_{name}.xml::scenario" in text and needle in text, (name, text)
