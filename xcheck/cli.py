@@ -22,7 +22,7 @@ import warnings
 from . import __version__
 from .commands.arguments import DURATION_HELP
 from .base import interrupts
-from .base.exits import EXIT_INTERRUPTED, EXIT_TERMINATED, stopped_line  # noqa: F401 (the codes: cli's names)
+from .base.exits import EXIT_INTERRUPTED, EXIT_TERMINATED, stopped_line
 from .base.errors import UsageError, UserError  # noqa: F401 (UsageError: imported from here before issue 38)
 from .base.interrupts import (
     Progress,

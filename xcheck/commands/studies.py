@@ -132,15 +132,11 @@ def converge_workers(methods: str | None, workers: int | None) -> tuple[int, lis
     from ..engines import ENGINES, available
 
     costly = [e.name for e in ENGINES.values() if e.to_workers and available(e.name)]
-    if methods is None:
-        engines = None
-        beside = True
-    else:
-        prefixes = {m.strip().split("-", 1)[0] for m in methods.split(",")}
-        costly = engines = [name for name in costly if name in prefixes]
-        beside = any(p not in costly for p in prefixes)  # ours, MuJoCo's: this process's work meanwhile
-    size = workers - 1 if workers and workers > 1 else (1 if workers is None and costly and beside else 0)
-    return size, engines
+    prefixes = None if methods is None else {m.strip().split("-", 1)[0] for m in methods.split(",")}
+    named = costly if prefixes is None else [name for name in costly if name in prefixes]
+    beside = prefixes is None or not prefixes <= set(named)  # ours, MuJoCo's: this process's own work meanwhile
+    size = workers - 1 if workers and workers > 1 else (1 if workers is None and named and beside else 0)
+    return size, None if prefixes is None else named
 
 
 def _converge(name, methods, steps, quick, json, out, pool, ctx, duration=None, tolerance=None) -> StudyOutcome:

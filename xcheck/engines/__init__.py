@@ -126,8 +126,8 @@ def available(engine: str) -> bool:
 
 def warm_modules(engines=None) -> tuple:
     """What a worker imports as it starts for the engines available here (of ``engines`` alone, when given)."""
-    return tuple(m for engine in ENGINES.values() if available(engine.name) and (engines is None or engine.name in
-                                                                                  engines) for m in engine.warm)
+    chosen = [e for e in ENGINES.values() if available(e.name) and (engines is None or e.name in engines)]
+    return tuple(m for engine in chosen for m in engine.warm)
 
 
 #: engine name -> the distribution whose version a report records

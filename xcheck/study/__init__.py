@@ -250,7 +250,8 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     # the engines' step budgets hold for the scenario's steps, not for steps asked for by name
     planned = {m: (tuple(steps), (), "") if steps_given else method_steps(scenario, m, steps, quick=quick)
                for m in methods}
-    key = study_key(scenario, methods, steps, tolerances, quick and not steps_given)
+    as_quick = quick and not steps_given  # the quick study's checks: only at its own steps
+    key = study_key(scenario, methods, steps, tolerances, as_quick)
     kept = stored(key, timing)
     if kept is not None:
         return kept
@@ -261,7 +262,7 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
                      labels=[_label(task) for task in tasks], here=prefer_here if here else None)
     by_method = {r.method: r for task_runs in done for r in task_runs}
     st = score_trajectories(about_the_model(assemble(scenario, steps, [by_method[m] for m in methods],
-                                                     quick=quick and not steps_given, planned=planned), quick))
+                                                     quick=as_quick, planned=planned), quick))
     keep(key, st, timing)
     return st
 
@@ -314,8 +315,9 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
         methods = default_methods(sc)
         steps = sorted((float(s) for s in (sc.quick_steps if quick else sc.steps)), reverse=True)
         plans.append((sc, methods, steps, {m: method_steps(sc, m, steps, quick=quick) for m in methods}))
-    per_study = [study_tasks(sc, methods, planned, sc.quick_tolerances if quick else sc.tolerances)
-                 for sc, methods, _, planned in plans]
+    tolerances = [sc.quick_tolerances if quick else sc.tolerances for sc in scenarios]
+    per_study = [study_tasks(sc, methods, planned, tol) for (sc, methods, _, planned), tol in zip(plans, tolerances)]
+    keys = [study_key(sc, methods, steps, tol, quick) for (sc, methods, steps, _), tol in zip(plans, tolerances)]
     tasks = [task for ts in per_study for task in ts]
     starting(progress, len(tasks))
     guard_references(scenarios)
@@ -332,8 +334,7 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
             sc, methods, steps, planned = plans[k]
             studies[k] = score_trajectories(about_the_model(assemble(sc, steps, [results[k][m] for m in methods],
                                                                      quick=quick, planned=planned), quick))
-            keep(study_key(sc, methods, steps, sc.quick_tolerances if quick else sc.tolerances, quick), studies[k],
-                 True)
+            keep(keys[k], studies[k], True)
             if on_study:
                 on_study(studies[k])
 

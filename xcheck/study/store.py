@@ -55,11 +55,9 @@ def stored(key: str | None, timing: bool):
 
 
 def keep(key: str | None, study, timing: bool) -> None:
-    """Keep ``study`` under ``key`` (written whole, then renamed: a reader sees all of it or nothing)."""
-    if key is None:
-        return
-    folder = _folder()
-    folder.mkdir(parents=True, exist_ok=True)
-    partial = folder / f".{key}.{os.getpid()}.partial"
-    partial.write_bytes(pickle.dumps((timing, study)))
-    os.replace(partial, folder / f"{key}.pickle")
+    """Keep ``study`` under ``key`` (:func:`~xcheck.base.files.write_bytes_atomic`: a reader sees all of it or
+    nothing)."""
+    if key is not None:
+        from ..base.files import write_bytes_atomic
+
+        write_bytes_atomic(_folder() / f"{key}.pickle", pickle.dumps((timing, study)))
