@@ -75,17 +75,18 @@ def test_without_the_flag_there_is_no_horizon_section(tmp_path):
 
 
 def test_a_horizon_whose_reference_is_refused_fails_the_section_saying_why(tmp_path):
-    """RAX-1 with its momentum wheel over a day: its reference disagrees with itself (3 rad at half the tolerance),
-    so the section says the horizon was not run and why, and fails the report (a bundled horizon must run)."""
+    """RAX-1 with its momentum wheel over six hours: its reference disagrees with itself (3.6e-5 rad at half the
+    tolerance, over the 1e-8 rad allowed), so the section says the horizon was not run and why, and fails the report
+    (a bundled horizon must run)."""
     text = (BUNDLED_MODELS / "scenarios" / "rax1-momentum-bias.toml").read_text()
     text = text.replace('model = "../rax1_wheel.xml"', f'model = "{BUNDLED_MODELS / "rax1_wheel.xml"}"')
-    text += "\n[horizon]\nduration = 86400.0\nsteps = [0.5]\n"
-    path = tmp_path / "bias-day.toml"
-    path.write_text(text.replace('name = "rax1-momentum-bias"', 'name = "bias-day"'))
+    text += "\n[horizon]\nduration = 21600.0\nsteps = [0.5]\n"
+    path = tmp_path / "bias-6h.toml"
+    path.write_text(text.replace('name = "rax1-momentum-bias"', 'name = "bias-6h"'))
     from xcheck.report.horizons import horizon_section, start_horizons
     from xcheck.scenario import load_scenario
 
     section = horizon_section(start_horizons([load_scenario(path)], None))
     assert not section.passed
-    assert section.results["horizons"]["refused"][0]["scenario"] == "bias-day"
+    assert section.results["horizons"]["refused"][0]["scenario"] == "bias-6h"
     assert "differs from itself at half the tolerance" in section.results["horizons"]["refused"][0]["why"]
