@@ -464,27 +464,6 @@ def test_cf4_keeps_the_unit_norm_by_construction():
     assert np.abs(np.linalg.norm(traj.q, axis=1) - 1).max() < 700 * np.finfo(float).eps  # 640 steps
 
 
-def test_a_cold_compile_cache_is_seen_and_warmed(tmp_path):
-    """A worker on a new machine compiles some kernels while the main process compiles the others (the cold README
-    line 1: 58.9 -> 45.3 s). Truth: the cache folder's files. An empty cache is cold; once a kernel is compiled into
-    it, warm; the worker's start (pool._import's "module:function") does it. In a process of its own."""
-    import subprocess
-    import sys
-
-    script = ("from xcheck.integrators import compile_cache_is_cold, precompile\n"
-              "from xcheck.base.pool import _import\n"
-              "before = compile_cache_is_cold()\n"
-              "precompile(['formulation-2'])\n"
-              "after = compile_cache_is_cold()\n"
-              "_import(['xcheck.integrators:compile_cache_is_cold'])\n"
-              "print(before, after)")
-    env = {**__import__("os").environ, "XCHECK_CACHE_DIR": str(tmp_path), "XCHECK_NATIVE": "1"}  # compiled, not shipped
-    env.pop("NUMBA_CACHE_DIR", None)
-    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=300)
-    assert out.stdout.split() == ["True", "False"], out.stderr[-2000:]
-    assert list(tmp_path.rglob("loops.run_formulation_2__*.nbi"))
-
-
 def test_every_scheme_states_its_layout_and_its_state_round_trips():
     """Truth: each scheme's declaration. Its encoded state has the declared layout's length, the parts are consecutive,
     and decoding gives back the attitude (up to sign) and the body rate to 1e-15; a held part that is not the first
