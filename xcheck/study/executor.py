@@ -3,6 +3,7 @@ and the converge command's way: this process works beside a pool whose workers i
 
 from __future__ import annotations
 
+import threading
 from concurrent.futures import FIRST_COMPLETED, as_completed, wait
 from itertools import groupby
 
@@ -85,6 +86,10 @@ def _map_here(fn, tasks, pool, record, prefer, idle=None) -> None:
     workers = getattr(pool, "_max_workers", 1) or 1
     warm = [False]  # the pool has run one of this process's tasks (and so loaded our compiled code)
 
+    def unfinished() -> int:
+        """The workers' tasks not yet done (a done one waits here to be recorded, by this process's thread)."""
+        return sum(not f.done() for f in futures)
+
     def worth_sending() -> bool:
         """One of this process's own tasks goes to a worker only when a worker is idle (queued behind a long run
         of Basilisk's it would finish after this process had run out of work and waited for it), or, once the pool has
@@ -95,30 +100,71 @@ def _map_here(fn, tasks, pool, record, prefer, idle=None) -> None:
         code (0.3-0.5 s; a worker that drove Basilisk alone never loaded it), where this process runs one of a
         quick study in 10-20 ms (seen: the last task of a converge stolen, finishing 0.25 s after this one)."""
         ahead = workers if warm[0] and len(pending) > 2 * workers else 0  # one queued behind each worker's run
-        if not (ready_workers(pool) and len(futures) < workers + ahead):
+        if not (ready_workers(pool) and unfinished() < workers + ahead):
             return False
         return warm[0] or sum(prefer(tasks[i]) for i in pending) > COLD_WORKER_TASKS
 
-    while pending or futures:
-        # the workers' own tasks wait for them however long they take to start; another task goes to a worker
-        # only once one has started (this process would otherwise wait for it)
-        while pending and (len(futures) < workers + 1 if not prefer(tasks[pending[0]]) else worth_sending()):
+    lock, wake, ended = threading.Lock(), threading.Event(), [False]
+
+    def send() -> None:
+        """Submit what the rules above allow (under ``lock``)."""
+        while pending and (unfinished() < workers + 1 if not prefer(tasks[pending[0]]) else worth_sending()):
             i = pending.pop(0)
             warm[0] = warm[0] or prefer(tasks[i])
-            futures[pool.submit(fn, *tasks[i])] = i
-        collect(block=False)
-        if not pending:
-            if not (idle and idle()):
-                collect(block=True)
-            continue
-        if not prefer(tasks[pending[-1]]) and futures:  # only the workers' own are left
-            if idle and idle():  # other work first: one of their tasks here would cost this process the import
+            fut = pool.submit(fn, *tasks[i])
+            futures[fut] = i
+            fut.add_done_callback(lambda _: wake.set())
+
+    def feed() -> None:
+        """The workers' supply while this process runs a task of its own (seconds, for a long one): each result in
+        is a worker free, and the next task is sent at once. Before, it was sent only when this process came back
+        between its own tasks, and the full report's worker waited for work 20 s of 42 (issue 61)."""
+        while True:
+            wake.wait()
+            wake.clear()
+            with lock:
+                if ended[0]:
+                    return
+                send()
+
+    for started in getattr(pool, "starting", None) or ():  # a worker ready is a worker to feed
+        started.add_done_callback(lambda _: wake.set())
+    threading.Thread(target=feed, name="xcheck-feeder", daemon=True).start()
+
+    def block() -> None:
+        with lock:
+            waiting = list(futures)
+        if waiting:
+            wait(waiting, return_when=FIRST_COMPLETED)
+
+    try:
+        while True:
+            with lock:
+                send()
+                collect(block=False)
+                if not pending and not futures:
+                    return
+                left = len(pending)
+                theirs_left = bool(pending) and not prefer(tasks[pending[-1]]) and bool(futures)
+            if not left:
+                if not (idle and idle()):
+                    block()
                 continue
-            if len(pending) <= workers:
-                collect(block=True)  # no more than they take next: wait for them
-                continue
-        i = pending.pop()
-        record(i, fn(*tasks[i]))
+            if theirs_left:  # only the workers' own are left
+                if idle and idle():  # other work first: one of their tasks here would cost this process the import
+                    continue
+                if left <= workers:
+                    block()  # no more than they take next: wait for them
+                    continue
+            with lock:
+                if not pending:  # the feeder sent the last of them meanwhile
+                    continue
+                i = pending.pop()
+            record(i, fn(*tasks[i]))
+    finally:
+        with lock:
+            ended[0] = True
+        wake.set()
 
 
 def worker_modules(figures: bool, engines=None) -> tuple:
