@@ -209,3 +209,25 @@ def test_a_converge_starts_a_worker_only_for_the_costly_engines_it_runs_and_impo
     assert not others & set(warm), others & set(warm)
     assert {m for name in costly for m in ENGINES[name].warm} <= set(worker_modules(figures=True))
     assert "xcheck.report.plots" in worker_modules(figures=True)
+
+
+def test_a_worker_is_fed_while_this_process_runs_a_long_task_of_its_own():
+    """Issue 61: the workers' next task is sent as each of theirs ends, not when this process comes back between its
+    own. Truth: who ran what (each task returns its process's id). Twenty short tasks (20 ms) and one long (3 s),
+    which this process takes first (it takes from the back); the worker runs every short one meanwhile (0.4 s of
+    work), so this process runs the long one alone. Before the feeder, the worker got its next task only between
+    this process's own: two while the long one ran, and this process then ran most of the rest itself (12 of 20 seen).
+    Up to three here allowed: a worker slow to start on a loaded machine."""
+    import os
+
+    from xcheck.base.pool import worker_pool
+    from xcheck.study.executor import map_tasks
+
+    short = ("__import__('time').sleep(0.02) or __import__('os').getpid()",)
+    long = ("__import__('time').sleep(3.0) or __import__('os').getpid()",)
+    tasks = [short] * 20 + [long]
+    with worker_pool(1) as pool:
+        ran = map_tasks(eval, tasks, workers=2, progress=None, pool=pool, labels=[""] * len(tasks),
+                        here=lambda task: True)
+    assert ran[-1] == os.getpid()  # the long one, here
+    assert ran[:-1].count(os.getpid()) <= 3, ran  # the short ones in the worker (old: 12 of 20 here)

@@ -64,7 +64,9 @@ def _map_here(fn, tasks, pool, record, prefer, idle=None) -> None:
     workers import as they start), kept one task ahead of its workers so that what else is submitted to it, a
     scenario's figures, is not queued behind every study, and given none before one of them has started (a task
     waiting for a worker's imports is better run here); this process takes them from the back, collecting
-    finished results between its own, and the workers' own too when more are left than the workers take next.
+    finished results between its own, and the workers' own too when more are left than the workers take next. A
+    feeder thread sends the workers their next task as each result comes in, while this process runs one of its own;
+    results are recorded by this process's thread alone.
     Every process pays its imports and compiled-code loading once (1-3 s): a worker fewer, and this process
     working, is that much less to pay. Where it would wait for the workers, it does ``idle()``'s work first (the
     report's figures of a finished scenario that no worker has started on)."""
