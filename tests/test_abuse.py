@@ -663,12 +663,7 @@ def test_killed_parent_leaves_no_orphan_workers(tmp_path):
     assert _wait_for(lambda: not any(_alive(w) for w in workers + tracker), timeout=15), "orphans outlived the parent"
 
 
-def test_leftovers_of_killed_runs_are_removed(tmp_path, capsys, monkeypatch):
-    """A report removes what killed runs of this user left (a dead process's folder and link), not a live one's. The
-    optional engines left out (``$XCHECK_WITHOUT``): the question is the report's start and end, not its methods."""
-    from xcheck.engines import ENGINES, WITHOUT_VARIABLE
-
-    monkeypatch.setenv(WITHOUT_VARIABLE, ",".join(name for name in ENGINES if name != "mujoco"))
+def test_leftovers_of_killed_runs_are_removed(tmp_path, capsys):
     out = tmp_path / "reports"
     owner = base_files._owner()
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
