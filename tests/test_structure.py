@@ -13,7 +13,7 @@ import xcheck
 PACKAGE = Path(xcheck.__file__).resolve().parent
 #: The core: mathematics, integrators, references, metrics, fields (docs/architecture.md).
 CORE = ["base", "rotations", "seeds", "body", "trajectory", "fields", "integrators", "reference", "elliptic", "guard",
-        "defaults", "metrics", "invariants",
+        "defaults", "metrics", "invariants", "motion",
         "_jit", "_prebuilt", "paths", "results", "determination.methods", "determination.seed002", "league.boxes", "scoring.earth"]
 
 

@@ -144,7 +144,9 @@ def test_the_first_line_answers_at_the_models_step(models):
         assert a["methods"][name] == {"error": run.max_attitude_error, "within": run.max_attitude_error <= 1e-6,
                                       "energy_change": run.energy_change, "momentum_change": run.momentum_change,
                                       "momentum_turn": run.momentum_turn, "energy_law": run.energy_law,
-                                      "momentum_law": run.momentum_law, "turn_law": run.turn_law}
+                                      "momentum_law": run.momentum_law, "turn_law": run.turn_law,
+                                      "flips": run.flips}  # the box tumbles: it flips every 6.2 s
+        assert run.flips["flips"] == 3
     assert a["methods"]["mujoco-implicitfast"]["energy_change"] < 0 < a["methods"]["mujoco-implicitfast"]["momentum_turn"]
     assert a["methods"]["lie-rkmk4"]["within"] and not a["methods"]["mujoco-implicitfast"]["within"]
     assert a["not_run"] == {"scipy-rk45": "adaptive: it chooses its own steps (see its tolerances)"}

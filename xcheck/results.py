@@ -47,7 +47,7 @@ def json_number(v):
 
 
 #: A run's fields its JSON leaves out: its message (written only where there is one), its invariants' laws (see them)
-_NOT_IN_JSON = ("message", "energy_law", "momentum_law", "turn_law")
+_NOT_IN_JSON = ("message", "energy_law", "momentum_law", "turn_law", "flips")
 
 
 @dataclass
@@ -90,6 +90,9 @@ class Run:
     repeats: int | None = None
     evaluations: int | None = None
     rtol: float | None = None
+    #: a tumbling body's flips over the run (:func:`xcheck.motion.flips_of`: ``flips``, ``first`` [s], ``every``
+    #: [s]), None where the body does not tumble; like the laws, in the JSON of the runs the answers quote only
+    flips: dict | None = None
 
     @property
     def ok(self) -> bool:
@@ -130,6 +133,8 @@ class MethodRuns:
     reference_check: dict | None = None
     #: the method's engine could not be imported in the worker (a broken install): why; nothing was run
     import_error: str | None = None
+    #: the reference's own flips where the body tumbles (:func:`xcheck.motion.flip_summary`), None elsewhere
+    reference_flips: dict | None = None
 
     @classmethod
     def without_reference(cls, method: str, settings, reason: str) -> "MethodRuns":

@@ -51,6 +51,7 @@ def study_lines(st) -> list[str]:
     if st.reference_check:
         lines.append(f"  reference: {st.reference_check['text']}")
     lines += method_table(st)
+    lines += flips_table(st)
     lines += [f"  {line}" for line in left_out_lines(st)]
     if st.files:
         from .score import file_lines
@@ -97,6 +98,36 @@ def method_table(st) -> list[str]:
         accurate = accurate_text(a, show_step=a is not None and where_text(a) != usual)
         out.append(f"  {name:{width}s} {exp!s:>8s} {obs:>8s}  {finest:<24s} {energy:<18s} {size:<18s} {turn:>8s}  "
                    f"{consistent:<16s} {accurate}")
+    return out
+
+
+def flips_table(st) -> list[str]:
+    """A tumbling body's flips per method (:mod:`xcheck.motion`), at the step each row is judged at, against the
+    reference's; [] where the body does not tumble."""
+    from ..study.statements import where_text
+
+    if not st.flips:
+        return []
+    ref = st.flips["reference"]
+    width = max([22, *map(len, st.methods)])
+    every = "" if ref["every"] is None else f", every {ref['every']:.6g} s"
+    times = "once" if ref["flips"] == 1 else f"{ref['flips']} times"
+    out = [f"  flips (the body tumbles; a flip: its rate about the intermediate principal axis changes sign, placed "
+           f"between samples): the reference flips {times} in {st.scenario.duration:g} s, first at {ref['first']:.6g} s"
+           f"{every}; Δ = the method's less the reference's",
+           f"  {'method':{width}s} {'at':>12s} {'flips':>5s} {'first [s]':>11s} {'Δ first [s]':>12s} "
+           f"{'every [s]':>11s} {'Δ every [s]':>12s}"]
+    for name, m in st.methods.items():
+        a = m.accurate or {}
+        f = a.get("flips")
+        if f is None:
+            continue
+        cells = []
+        for key in ("first", "every"):
+            got, want = f[key], ref[key]
+            cells += [f"{got:11.6g}" if got is not None else f"{'—':>11s}",
+                      f"{got - want:+12.1e}" if got is not None and want is not None else f"{'—':>12s}"]
+        out.append(f"  {name:{width}s} {where_text(a):>12s} {f['flips']:5d} {' '.join(cells)}")
     return out
 
 

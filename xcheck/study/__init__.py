@@ -22,6 +22,7 @@ from ..metrics import (
     observed_order,
     tolerance_key,
 )
+from ..motion import FLIPS_HOW
 from ..results import Check, MethodResult
 from ..engines.mechanism import joint_kinds
 from ..runners import RUNNERS
@@ -76,6 +77,9 @@ class StudyResult:
     over_budget: dict = field(default_factory=dict)
     #: the answer at the user's own step (:func:`~xcheck.study.your_step.your_step_answer`); None: no step of theirs
     your_step: dict | None = None
+    #: a tumbling body's flips (:mod:`xcheck.motion`): how they are measured and the reference's; each method's are in
+    #: its ``accurate`` (at the step its row is judged at) and in ``your_step``; None where the body does not tumble
+    flips: dict | None = None
 
     @property
     def outcome(self) -> str:
@@ -119,7 +123,8 @@ class StudyResult:
                 **({"files": {n: f.to_json() for n, f in self.files.items()}} if self.files else {}),
                 **({"not_run": dict(self.not_run)} if self.not_run else {}),
                 **({"over_budget": {m: {"steps": list(d), "why": why} for m, (d, why) in self.over_budget.items()}}
-                   if self.over_budget else {})}
+                   if self.over_budget else {}),
+                **({"flips": dict(self.flips)} if self.flips else {})}
 
 
 def default_methods(scenario: Scenario) -> list[str]:
@@ -433,7 +438,13 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
                        quick=quick, series=series, comparisons=comparisons, reference_check=reference_check,
                        inconclusive=reasons, not_run={**{m: why for m, why in not_run(scenario).items()
                                                          if m not in methods and _offered(RUNNERS[m])}, **broken},
-                       over_budget=over_budget, your_step=answer)
+                       over_budget=over_budget, your_step=answer, flips=_flips(results))
+
+
+def _flips(results) -> dict | None:
+    """The study's ``flips`` (:attr:`StudyResult.flips`): how they are measured, and the reference's own."""
+    reference = next((res.reference_flips for res in results if res.reference_flips), None)
+    return None if reference is None else {"how": FLIPS_HOW, "reference": reference}
 
 
 def _budget_undecided(checks: list, over_budget: dict) -> list:

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..guard import check_exact, guard_times, stand_in
-from ..reference import ReferenceFailure, dop853_solution, exact_reference
+from ..motion import crossings, flip_summary, intermediate_rate, refined_crossings, tumbles
+from ..reference import ReferenceFailure, dop853_solution, exact_reference, own_period
 from ..runners import RUNNERS, RunContext
 from ..scenario import Scenario
 
@@ -86,6 +87,23 @@ class _Reference:
         values = self._at(t)
         self._grids = [(t.copy(), values), *self._grids[:15]]
         return values
+
+    def flips(self):
+        """The reference's own flips where the body tumbles (:mod:`xcheck.motion`: each sign change of the rate
+        about the intermediate axis bisected on the reference itself, a fine run's on its grid), None elsewhere or
+        where it never flips; computed once."""
+        if not hasattr(self, "_flips"):
+            self._flips = None
+            ctx = self.ctx
+            if tumbles(ctx.inertia, ctx.omega0):
+                period = own_period(ctx.inertia, ctx.q0, ctx.omega0, ctx.torque) or ctx.duration
+                grid = np.linspace(0.0, ctx.duration, int(min(max(8192, 64 * ctx.duration / period), 2e6)) + 1)
+                if self.used == "fine":
+                    times = crossings(self.fine.t, intermediate_rate(ctx.inertia, self.fine.omega))
+                else:
+                    times = refined_crossings(lambda t: intermediate_rate(ctx.inertia, self._at(t)[1]), grid)
+                self._flips = flip_summary(times) if len(times) else None
+        return self._flips
 
     def _at(self, t):
         if self.used == "exact":

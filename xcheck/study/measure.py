@@ -13,6 +13,7 @@ from .. import rotations as rot
 from .._jit import compiled_code_loaded
 from ..invariants import CHANGE_KEYS, LAW_KEYS, invariant_series, law_samples
 from ..metrics import errors_against, invariant_changes
+from ..motion import flips_of, resolves_flips, tumbles
 from ..reference import ReferenceFailure
 from ..results import MethodRuns, Run
 from ..runners import RUNNERS, RunContext
@@ -79,6 +80,8 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
             runs.append(Run.failed(dt, "failed", f"{method}: {exc}", time.perf_counter() - t0, rtol))
             continue
         run = measure_run(method, traj, ref, ctx, dt, wall, repeats=repeats, rtol=rtol)
+        if run.flips is not None and not resolves_flips(dt, ref.flips()):
+            run.flips = None
         runs.append(run)
         if not run.ok:
             continue
@@ -89,7 +92,7 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
             comparisons.append(_compare(scenario, ctx, traj, method, partner, dt))
     series = _sample(finest, ref, ctx) if finest is not None and sample else None
     return MethodRuns(method, runs, series=series, comparisons=[c for c in comparisons if c is not None],
-                      reference_check=ref.check)
+                      reference_check=ref.check, reference_flips=ref.flips())
 
 
 def _compare(scenario, ctx, traj, method: str, partner: str, dt: float, now: bool = False) -> dict | None:
@@ -158,7 +161,8 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float,
               momentum_turn=kept["momentum_turn"], spin_change=kept.get("spin_change"), norm_drift=kept["norm_drift"],
               wheel_speed_error=_wheel_speed_error(traj, ctx.torque, q_ref, w_ref, mask),
               wall_time=wall, steps_per_second=_steps_per_second(dt, ctx.duration, wall),
-              message=traj.extras.get("clock") or "", repeats=repeats, evaluations=traj.extras.get("evaluations"), rtol=rtol)
+              message=traj.extras.get("clock") or "", repeats=repeats, evaluations=traj.extras.get("evaluations"),
+              rtol=rtol, flips=flips_of(ctx.inertia, traj.t, traj.omega) if tumbles(ctx.inertia, ctx.omega0) else None)
     if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
         return Run.failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall, rtol)
     return run

@@ -61,7 +61,7 @@ def accuracy(m, your_step: dict | None, tolerance: float | None = None) -> dict 
         return None
     return {"dt": run.dt, **({"rtol": run.rtol} if run.rtol is not None else {}), "yours": False,
             "error": run.max_attitude_error, "tolerance": tol, "within": run.max_attitude_error <= tol,
-            **{key: getattr(run, key) for key in RUN_KEYS}}
+            **{key: getattr(run, key) for key in RUN_KEYS}, **({"flips": run.flips} if run.flips else {})}
 
 
 def usual_place(methods) -> str | None:

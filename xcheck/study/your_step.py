@@ -46,7 +46,8 @@ def your_step_answer(scenario, steps, methods: dict, over_budget: dict) -> dict 
             out["not_run"][name] = run.message or run.status
         else:
             out["methods"][name] = {"error": run.max_attitude_error, "within": run.max_attitude_error <= tolerance,
-                                    **{key: getattr(run, key) for key in RUN_KEYS}}  # its invariants, signed
+                                    **{key: getattr(run, key) for key in RUN_KEYS},  # its invariants, signed
+                                    **({"flips": run.flips} if run.flips else {})}  # a tumbler's (xcheck.motion)
     return out
 
 
