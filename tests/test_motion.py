@@ -123,6 +123,20 @@ def test_a_study_of_the_tumbler_says_its_flips_and_a_top_says_none():
     assert abs(lie["first"] - ref["first"]) < 1e-6
     implicit = data["methods"]["mujoco-implicit"]["accurate"]["flips"]
     assert -5e-3 < implicit["first"] - ref["first"] < -1e-3  # early (measured -2.0e-3 s at 1/1024 s)
+    # the terminal's table and the report's, one row per method at the step its row is judged
+    from xcheck.commands.studies import flips_table
+    from xcheck.report.document import to_markdown
+    from xcheck.report.render import _flip_blocks
+
+    lines = flips_table(st)
+    assert "the reference flips once in 10 s, first at 4.78206 s" in lines[0]
+    assert lines[2].split()[:4] == ["lie-rkmk4", "1/1024", "s", "1"] and lines[2].split()[4] == "4.78206"
+    implicit_row = lines[3].split()
+    assert implicit_row[0] == "mujoco-implicit" and float(implicit_row[5]) < 0  # Δ first: early
+    markdown = to_markdown(_flip_blocks(st))
+    assert "| lie-rkmk4 | 1/1024 s | 1 | 4.78206 |" in markdown
+    assert "Flips (the body tumbles" in markdown
     top = run_study(resolve_scenario("gyroscope-nonsingular"), methods=["lie-rkmk4"], quick=True, workers=1)
     assert "flips" not in top.data
     assert "flips" not in top.data["methods"]["lie-rkmk4"]["accurate"]
+    assert flips_table(top) == [] and _flip_blocks(top) == []

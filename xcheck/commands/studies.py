@@ -102,32 +102,20 @@ def method_table(st) -> list[str]:
 
 
 def flips_table(st) -> list[str]:
-    """A tumbling body's flips per method (:mod:`xcheck.motion`), at the step each row is judged at, against the
-    reference's; [] where the body does not tumble."""
-    from ..study.statements import where_text
+    """A tumbling body's flips per method (:func:`~xcheck.study.statements.flip_rows`); [] where it does not tumble."""
+    from ..study.statements import flip_rows
 
-    if not st.flips:
+    table = flip_rows(st)
+    if table is None:
         return []
-    ref = st.flips["reference"]
+    head, rows = table
     width = max([22, *map(len, st.methods)])
-    every = "" if ref["every"] is None else f", every {ref['every']:.6g} s"
-    times = "once" if ref["flips"] == 1 else f"{ref['flips']} times"
-    out = [f"  flips (the body tumbles; a flip: its rate about the intermediate principal axis changes sign, placed "
-           f"between samples): the reference flips {times} in {st.scenario.duration:g} s, first at {ref['first']:.6g} s"
-           f"{every}; Δ = the method's less the reference's",
-           f"  {'method':{width}s} {'at':>12s} {'flips':>5s} {'first [s]':>11s} {'Δ first [s]':>12s} "
-           f"{'every [s]':>11s} {'Δ every [s]':>12s}"]
-    for name, m in st.methods.items():
-        a = m.accurate or {}
-        f = a.get("flips")
-        if f is None:
-            continue
-        cells = []
-        for key in ("first", "every"):
-            got, want = f[key], ref[key]
-            cells += [f"{got:11.6g}" if got is not None else f"{'—':>11s}",
-                      f"{got - want:+12.1e}" if got is not None and want is not None else f"{'—':>12s}"]
-        out.append(f"  {name:{width}s} {where_text(a):>12s} {f['flips']:5d} {' '.join(cells)}")
+    out = [f"  {head}", f"  {'method':{width}s} {'at':>12s} {'flips':>5s} {'first [s]':>11s} {'Δ first [s]':>12s} "
+                        f"{'every [s]':>11s} {'Δ every [s]':>12s}"]
+    for name, at, n, first, d_first, every, d_every in rows:
+        cells = [f"{v:11.6g}" if v is not None else f"{'—':>11s}" for v in (first, every)]
+        deltas = [f"{v:+12.1e}" if v is not None else f"{'—':>12s}" for v in (d_first, d_every)]
+        out.append(f"  {name:{width}s} {at:>12s} {n:5d} {cells[0]} {deltas[0]} {cells[1]} {deltas[1]}")
     return out
 
 

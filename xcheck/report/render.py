@@ -21,7 +21,7 @@ from ..base.files import (
 )
 from ..base.pool import resolved, stop_pool
 from ..results import outcome_of
-from ..study.statements import accurate_text, invariants_text, usual_place, where_text
+from ..study.statements import accurate_text, flip_rows, invariants_text, usual_place, where_text
 from ..trajectory import step_label
 from ..versions import machine, versions
 from .document import Cell, Contents, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
@@ -317,6 +317,20 @@ def _front_cell(st, name) -> Cell:
     return Cell(f"{text} · {fmt(finest.attitude_error if finest else None, '.1e')}", m.verdict)
 
 
+def _flip_blocks(st) -> list:
+    """A tumbling body's flips per method (:func:`~xcheck.study.statements.flip_rows`): the sentence and the table."""
+    table = flip_rows(st)
+    if table is None:
+        return []
+    head, rows = table
+    cells = [[name, at, Cell(str(n), num=True),
+              *(Cell("—" if v is None else f"{v:{'+.1e' if k % 2 else '.6g'}}", num=True)
+                for k, v in enumerate((first, d_first, every, d_every)))]
+             for name, at, n, first, d_first, every, d_every in rows]
+    return [Para(head[0].upper() + head[1:] + ".", small=True),
+            Table(["method", "at", "flips", "first [s]", "Δ first [s]", "every [s]", "Δ every [s]"], cells)]
+
+
 def _statement_cells(m, usual: str | None) -> list:
     """A method's two statements and its invariants at the step its accuracy is judged at (the step said where it
     is not ``usual``, the step of most rows), as table cells."""
@@ -402,6 +416,7 @@ def _scenario_blocks(st, figs) -> list:
     blocks.append(Table(["method", "expected", "observed",
                          *(f"{step_label(d)} s" + (" (yours)" if d == yours else "") for d in st.steps), "steps/s",
                          "consistent", f"accurate {at}", "energy", "|L|", "L turned"], rows))
+    blocks += _flip_blocks(st)
     if adaptive:
         tols = sorted({r.rtol for m in adaptive.values() for r in m.runs}, reverse=True)
         out_step = step_label(next(iter(adaptive.values())).runs[0].dt)

@@ -15,7 +15,8 @@ from ..defaults import DEFAULT_CHECKS
 from ..invariants import RUN_KEYS, change_text
 from ..trajectory import same_step, step_label
 
-__all__ = ["consistency", "accuracy", "usual_place", "CONSISTENT", "THEORY", "short_law", "where_text", "accurate_text",
+__all__ = ["flip_rows", "consistency", "accuracy", "usual_place", "CONSISTENT", "THEORY", "short_law", "where_text",
+           "accurate_text",
            "invariants_text"]
 
 #: The checks that say whether a method behaves as its theory says (the rest judge accuracy: final-error, agreement).
@@ -107,3 +108,26 @@ def invariants_text(a: dict | None) -> tuple[str, str, str]:
              for key, law in (("energy_change", "energy_law"), ("momentum_change", "momentum_law"))]
     turn = a.get("momentum_turn")
     return cells[0], cells[1], "—" if turn is None else f"{turn:.1e}"
+
+
+def flip_rows(st) -> tuple[str, list[tuple]] | None:
+    """A tumbling body's flips (:mod:`xcheck.motion`) for a table, the terminal's and the report's: the sentence that
+    heads it (what a flip is, the reference's), and per method whose row has them ``(name, step, flips, first, Δ
+    first, every, Δ every)`` at the step its accuracy is judged at (times [s]; Δ the method's less the reference's,
+    None where either has none); None where the body does not tumble."""
+    if not st.flips:
+        return None
+    ref = st.flips["reference"]
+    times = "once" if ref["flips"] == 1 else f"{ref['flips']} times"
+    every = "" if ref["every"] is None else f", every {ref['every']:.6g} s"
+    head = (f"flips (the body tumbles; a flip: its rate about the intermediate principal axis changes sign, placed "
+            f"between samples): the reference flips {times} in {st.scenario.duration:g} s, first at "
+            f"{ref['first']:.6g} s{every}; Δ = the method's less the reference's")
+    rows = []
+    for name, m in st.methods.items():
+        f = (m.accurate or {}).get("flips")
+        if f is not None:
+            delta = {k: None if f[k] is None or ref[k] is None else f[k] - ref[k] for k in ("first", "every")}
+            rows.append((name, where_text(m.accurate), f["flips"], f["first"], delta["first"], f["every"],
+                         delta["every"]))
+    return head, rows
