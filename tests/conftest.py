@@ -62,7 +62,7 @@ CORE = frozenset(f"test_{name}.py" for name in (
     "rotations", "integrators", "reference", "reference_properties", "truth", "metrics", "invariants", "trajectory",
     "body", "fields", "surface_torques", "gravity_gradient", "seeds", "split", "lgvi", "heavy_top", "gyrostat",
     "study", "study_store", "results", "json_text", "scoring", "determination", "your_step", "timing_and_advice",
-    "models", "scenario", "sweep_spec", "sensing", "implicitfast_damping", "structure", "motion"))
+    "models", "scenario", "sweep_spec", "sensing", "implicitfast_damping", "structure", "motion", "advice"))
 
 
 def pytest_collection_modifyitems(config, items):

@@ -52,6 +52,7 @@ def study_lines(st) -> list[str]:
         lines.append(f"  reference: {st.reference_check['text']}")
     lines += method_table(st)
     lines += flips_table(st)
+    lines += advice_block(st)
     lines += [f"  {line}" for line in left_out_lines(st)]
     if st.files:
         from .score import file_lines
@@ -117,6 +118,17 @@ def flips_table(st) -> list[str]:
         deltas = [f"{v:+12.1e}" if v is not None else f"{'—':>12s}" for v in (d_first, d_every)]
         out.append(f"  {name:{width}s} {at:>12s} {n:5d} {cells[0]} {deltas[0]} {cells[1]} {deltas[1]}")
     return out
+
+
+def advice_block(st) -> list[str]:
+    """What to use instead, a line per engine (:mod:`xcheck.study.advice`)."""
+    from ..study.advice import advice_lines
+
+    lines = advice_lines(st)
+    if not lines:
+        return []
+    return ["  what to use instead: per engine, the cheapest of its integrators at the largest step this study ran "
+            "that keeps the tolerance over the run (there and at every finer step)", *(f"    {x}" for x in lines)]
 
 
 @dataclass

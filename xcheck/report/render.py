@@ -331,6 +331,20 @@ def _flip_blocks(st) -> list:
             Table(["method", "at", "flips", "first [s]", "Δ first [s]", "every [s]", "Δ every [s]"], cells)]
 
 
+def _advice_blocks(st) -> list:
+    """What to use instead (:mod:`xcheck.study.advice`): a sentence, then a line per engine, what to write as code."""
+    from ..study.advice import advice_parts
+
+    parts = advice_parts(st)
+    if not parts:
+        return []
+    return [Para([("What to use instead:", "b"), (" per engine, the cheapest of its integrators at the largest step "
+                                                   "this study ran that keeps the tolerance over the run (there and at "
+                                                   "every finer step).", None)], small=True),
+            *(Para([(f"{who}: ", None), *([(use, "code"), (f" ({rest})", None)] if use else [(rest, None)])])
+              for who, use, rest in parts)]
+
+
 def _statement_cells(m, usual: str | None) -> list:
     """A method's two statements and its invariants at the step its accuracy is judged at (the step said where it
     is not ``usual``, the step of most rows), as table cells."""
@@ -416,7 +430,7 @@ def _scenario_blocks(st, figs) -> list:
     blocks.append(Table(["method", "expected", "observed",
                          *(f"{step_label(d)} s" + (" (yours)" if d == yours else "") for d in st.steps), "steps/s",
                          "consistent", f"accurate {at}", "energy", "|L|", "L turned"], rows))
-    blocks += _flip_blocks(st)
+    blocks += _flip_blocks(st) + _advice_blocks(st)
     if adaptive:
         tols = sorted({r.rtol for m in adaptive.values() for r in m.runs}, reverse=True)
         out_step = step_label(next(iter(adaptive.values())).runs[0].dt)

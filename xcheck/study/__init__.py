@@ -28,6 +28,7 @@ from ..engines.mechanism import joint_kinds
 from ..runners import RUNNERS
 from ..scenario import Scenario, check_steps
 from ..versions import versions
+from .advice import advice
 from .checks import adaptive_note, planned_checks, qualify, study_checks, study_floor, verdict
 from .executor import map_tasks, prefer_here
 from .files import score_trajectories
@@ -80,6 +81,9 @@ class StudyResult:
     #: a tumbling body's flips (:mod:`xcheck.motion`): how they are measured and the reference's; each method's are in
     #: its ``accurate`` (at the step its row is judged at) and in ``your_step``; None where the body does not tumble
     flips: dict | None = None
+    #: what to use instead, per engine (:func:`~xcheck.study.advice.advice`): its cheapest method and largest studied
+    #: step within the tolerance over the run
+    advice: list = field(default_factory=list)
 
     @property
     def outcome(self) -> str:
@@ -124,7 +128,8 @@ class StudyResult:
                 **({"not_run": dict(self.not_run)} if self.not_run else {}),
                 **({"over_budget": {m: {"steps": list(d), "why": why} for m, (d, why) in self.over_budget.items()}}
                    if self.over_budget else {}),
-                **({"flips": dict(self.flips)} if self.flips else {})}
+                **({"flips": dict(self.flips)} if self.flips else {}),
+                **({"advice": list(self.advice)} if self.advice else {})}
 
 
 def default_methods(scenario: Scenario) -> list[str]:
@@ -438,7 +443,8 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
                        quick=quick, series=series, comparisons=comparisons, reference_check=reference_check,
                        inconclusive=reasons, not_run={**{m: why for m, why in not_run(scenario).items()
                                                          if m not in methods and _offered(RUNNERS[m])}, **broken},
-                       over_budget=over_budget, your_step=answer, flips=_flips(results))
+                       over_budget=over_budget, your_step=answer, flips=_flips(results),
+                       advice=[] if reference_error else advice(scenario, methods))
 
 
 def _flips(results) -> dict | None:
