@@ -47,7 +47,7 @@ def json_number(v):
 
 
 #: A run's fields its JSON leaves out: its message (written only where there is one), its invariants' laws (see them)
-_NOT_IN_JSON = ("message", "energy_law", "momentum_law", "turn_law", "flips")
+_NOT_IN_JSON = ("message", "energy_law", "momentum_law", "turn_law", "flips", "precession")
 
 
 @dataclass
@@ -93,6 +93,9 @@ class Run:
     #: a tumbling body's flips over the run (:func:`xcheck.motion.flips_of`: ``flips``, ``first`` [s], ``every``
     #: [s]), None where the body does not tumble; like the laws, in the JSON of the runs the answers quote only
     flips: dict | None = None
+    #: a top's or an axisymmetric body's cone over the run (:func:`xcheck.motion.precession_of`: ``precession``
+    #: [rad/s], ``nutation_period`` [s], ``nutations``), None for any other body; in the same JSON as ``flips``
+    precession: dict | None = None
 
     @property
     def ok(self) -> bool:
@@ -135,6 +138,8 @@ class MethodRuns:
     import_error: str | None = None
     #: the reference's own flips where the body tumbles (:func:`xcheck.motion.flip_summary`), None elsewhere
     reference_flips: dict | None = None
+    #: the reference's own precession and nutation (:func:`xcheck.motion.precession_summary`), None elsewhere
+    reference_precession: dict | None = None
 
     @classmethod
     def without_reference(cls, method: str, settings, reason: str) -> "MethodRuns":

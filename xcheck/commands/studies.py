@@ -52,6 +52,7 @@ def study_lines(st) -> list[str]:
         lines.append(f"  reference: {st.reference_check['text']}")
     lines += method_table(st)
     lines += flips_table(st)
+    lines += precession_table(st)
     lines += advice_block(st)
     lines += [f"  {line}" for line in left_out_lines(st)]
     if st.files:
@@ -117,6 +118,24 @@ def flips_table(st) -> list[str]:
         cells = [f"{v:11.6g}" if v is not None else f"{'—':>11s}" for v in (first, every)]
         deltas = [f"{v:+12.1e}" if v is not None else f"{'—':>12s}" for v in (d_first, d_every)]
         out.append(f"  {name:{width}s} {at:>12s} {n:5d} {cells[0]} {deltas[0]} {cells[1]} {deltas[1]}")
+    return out
+
+
+def precession_table(st) -> list[str]:
+    """A top's or an axisymmetric body's cone per method (:func:`~xcheck.study.statements.precession_rows`)."""
+    from ..study.statements import precession_rows
+
+    table = precession_rows(st)
+    if table is None:
+        return []
+    head, rows = table
+    width = max([22, *map(len, st.methods)])
+    out = [f"  {head}", f"  {'method':{width}s} {'at':>12s} {'precession [rad/s]':>19s} {'Δ [rad/s]':>10s} "
+                        f"{'nutation [s]':>12s} {'Δ [s]':>9s}"]
+    for name, at, rate, d_rate, nut, d_nut in rows:
+        nut_cells = f"{'—':>12s} {'—':>9s}" if nut is None else \
+            f"{nut:12.6g} {d_nut:+9.1e}" if d_nut is not None else f"{nut:12.6g} {'—':>9s}"
+        out.append(f"  {name:{width}s} {at:>12s} {rate:19.7g} {d_rate:+10.1e} {nut_cells}")
     return out
 
 

@@ -21,7 +21,7 @@ from ..base.files import (
 )
 from ..base.pool import resolved, stop_pool
 from ..results import outcome_of
-from ..study.statements import accurate_text, flip_rows, invariants_text, usual_place, where_text
+from ..study.statements import accurate_text, flip_rows, invariants_text, precession_rows, usual_place, where_text
 from ..trajectory import step_label
 from ..versions import machine, versions
 from .document import Cell, Contents, Figure, Heading, Para, Table, Verdict, to_html, to_markdown
@@ -331,6 +331,19 @@ def _flip_blocks(st) -> list:
             Table(["method", "at", "flips", "first [s]", "Δ first [s]", "every [s]", "Δ every [s]"], cells)]
 
 
+def _precession_blocks(st) -> list:
+    """A top's or an axisymmetric body's cone per method (:func:`~xcheck.study.statements.precession_rows`)."""
+    table = precession_rows(st)
+    if table is None:
+        return []
+    head, rows = table
+    cells = [[name, at, *(Cell("—" if v is None else f"{v:{'+.1e' if k % 2 else '.7g'}}", num=True)
+                          for k, v in enumerate((rate, d_rate, nut, d_nut)))]
+             for name, at, rate, d_rate, nut, d_nut in rows]
+    return [Para(head[0].upper() + head[1:] + ".", small=True),
+            Table(["method", "at", "precession [rad/s]", "Δ [rad/s]", "nutation period [s]", "Δ [s]"], cells)]
+
+
 def _advice_blocks(st) -> list:
     """What to use instead (:mod:`xcheck.study.advice`): a sentence, then a line per engine, what to write as code."""
     from ..study.advice import advice_parts
@@ -430,7 +443,7 @@ def _scenario_blocks(st, figs) -> list:
     blocks.append(Table(["method", "expected", "observed",
                          *(f"{step_label(d)} s" + (" (yours)" if d == yours else "") for d in st.steps), "steps/s",
                          "consistent", f"accurate {at}", "energy", "|L|", "L turned"], rows))
-    blocks += _flip_blocks(st) + _advice_blocks(st)
+    blocks += _flip_blocks(st) + _precession_blocks(st) + _advice_blocks(st)
     if adaptive:
         tols = sorted({r.rtol for m in adaptive.values() for r in m.runs}, reverse=True)
         out_step = step_label(next(iter(adaptive.values())).runs[0].dt)

@@ -22,7 +22,7 @@ from ..metrics import (
     observed_order,
     tolerance_key,
 )
-from ..motion import FLIPS_HOW
+from ..motion import FLIPS_HOW, PRECESSION_HOW
 from ..results import Check, MethodResult
 from ..engines.mechanism import joint_kinds
 from ..runners import RUNNERS
@@ -81,6 +81,9 @@ class StudyResult:
     #: a tumbling body's flips (:mod:`xcheck.motion`): how they are measured and the reference's; each method's are in
     #: its ``accurate`` (at the step its row is judged at) and in ``your_step``; None where the body does not tumble
     flips: dict | None = None
+    #: a top's or an axisymmetric body's cone (:mod:`xcheck.motion`): how it is measured and the reference's; each
+    #: method's in its ``accurate`` and ``your_step`` entries; None for any other body
+    precession: dict | None = None
     #: what to use instead, per engine (:func:`~xcheck.study.advice.advice`): its cheapest method and largest studied
     #: step within the tolerance over the run
     advice: list = field(default_factory=list)
@@ -129,6 +132,7 @@ class StudyResult:
                 **({"over_budget": {m: {"steps": list(d), "why": why} for m, (d, why) in self.over_budget.items()}}
                    if self.over_budget else {}),
                 **({"flips": dict(self.flips)} if self.flips else {}),
+                **({"precession": dict(self.precession)} if self.precession else {}),
                 **({"advice": list(self.advice)} if self.advice else {})}
 
 
@@ -443,8 +447,14 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
                        quick=quick, series=series, comparisons=comparisons, reference_check=reference_check,
                        inconclusive=reasons, not_run={**{m: why for m, why in not_run(scenario).items()
                                                          if m not in methods and _offered(RUNNERS[m])}, **broken},
-                       over_budget=over_budget, your_step=answer, flips=_flips(results),
+                       over_budget=over_budget, your_step=answer, flips=_flips(results), precession=_cone(results),
                        advice=[] if reference_error else advice(scenario, methods))
+
+
+def _cone(results) -> dict | None:
+    """The study's ``precession`` (:attr:`StudyResult.precession`): how it is measured, and the reference's own."""
+    reference = next((res.reference_precession for res in results if res.reference_precession), None)
+    return None if reference is None else {"how": PRECESSION_HOW, "reference": reference}
 
 
 def _flips(results) -> dict | None:

@@ -6,7 +6,17 @@ from __future__ import annotations
 import numpy as np
 
 from ..guard import check_exact, guard_times, stand_in
-from ..motion import crossings, flip_summary, intermediate_rate, refined_crossings, tumbles
+from ..motion import (
+    cone_of,
+    crossings,
+    flip_summary,
+    intermediate_rate,
+    nutation_level,
+    precession_summary,
+    refined_crossings,
+    top_frame,
+    tumbles,
+)
 from ..reference import ReferenceFailure, dop853_solution, exact_reference, own_period
 from ..runners import RUNNERS, RunContext
 from ..scenario import Scenario
@@ -104,6 +114,27 @@ class _Reference:
                     times = refined_crossings(lambda t: intermediate_rate(ctx.inertia, self._at(t)[1]), grid)
                 self._flips = flip_summary(times) if len(times) else None
         return self._flips
+
+    def precession(self):
+        """A top's or an axisymmetric body's cone (:mod:`xcheck.motion`): ``{"frame": (axis, pole), "level": the
+        middle of the axis' height or None, "reference": its precession_summary}`` on the reference sampled 64 times
+        a period of the motion (a fine run on its grid), None for any other body; computed once."""
+        if not hasattr(self, "_precession"):
+            self._precession = None
+            ctx = self.ctx
+            frame = top_frame(ctx.inertia, ctx.q0, ctx.omega0, ctx.torque)
+            if frame is not None:
+                if self.used == "fine":
+                    t, q = self.fine.t, self.fine.q
+                else:
+                    period = own_period(ctx.inertia, ctx.q0, ctx.omega0, ctx.torque) or ctx.duration
+                    t = np.linspace(0.0, ctx.duration, int(min(max(8192, 64 * ctx.duration / period), 2e6)) + 1)
+                    q = self._at(t)[0]
+                u, azimuth = cone_of(q, *frame)
+                level = nutation_level(u)
+                self._precession = {"frame": frame, "level": level,
+                                    "reference": precession_summary(t, u, azimuth, level)}
+        return self._precession
 
     def _at(self, t):
         if self.used == "exact":

@@ -13,7 +13,7 @@ from .. import rotations as rot
 from .._jit import compiled_code_loaded
 from ..invariants import CHANGE_KEYS, LAW_KEYS, invariant_series, law_samples
 from ..metrics import errors_against, invariant_changes
-from ..motion import flips_of, resolves_flips, tumbles
+from ..motion import flips_of, precession_of, resolves_flips, resolves_precession, tumbles
 from ..reference import ReferenceFailure
 from ..results import MethodRuns, Run
 from ..runners import RUNNERS, RunContext
@@ -82,6 +82,9 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
         run = measure_run(method, traj, ref, ctx, dt, wall, repeats=repeats, rtol=rtol)
         if run.flips is not None and not resolves_flips(dt, ref.flips()):
             run.flips = None
+        cone = ref.precession() if run.ok else None
+        if cone is not None and resolves_precession(dt, cone["reference"]):
+            run.precession = _cone_against(traj, ref, cone)
         runs.append(run)
         if not run.ok:
             continue
@@ -92,7 +95,23 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
             comparisons.append(_compare(scenario, ctx, traj, method, partner, dt))
     series = _sample(finest, ref, ctx) if finest is not None and sample else None
     return MethodRuns(method, runs, series=series, comparisons=[c for c in comparisons if c is not None],
-                      reference_check=ref.check, reference_flips=ref.flips())
+                      reference_check=ref.check, reference_flips=ref.flips(),
+                      reference_precession=None if ref.precession() is None else ref.precession()["reference"])
+
+
+def _cone_against(traj, ref, cone) -> dict | None:
+    """The run's precession and nutation (:func:`xcheck.motion.precession_of`) with their errors against the
+    reference's measured the same way on the run's own times (``precession_error`` [rad/s], ``nutation_error`` [s]:
+    the method's less the reference's), so that what the sampling costs both cancels; None where the reference is
+    not known at every time of the run (a fine run's grid)."""
+    q_ref, _, mask = ref.at(traj.t)
+    if not mask.all():
+        return None
+    got = precession_of(traj.t, traj.q, cone["frame"], cone["level"])
+    want = precession_of(traj.t, q_ref, cone["frame"], cone["level"])
+    nutation = (None if got["nutation_period"] is None or want["nutation_period"] is None else
+                got["nutation_period"] - want["nutation_period"])
+    return {**got, "precession_error": got["precession"] - want["precession"], "nutation_error": nutation}
 
 
 def _compare(scenario, ctx, traj, method: str, partner: str, dt: float, now: bool = False) -> dict | None:

@@ -15,9 +15,8 @@ from ..defaults import DEFAULT_CHECKS
 from ..invariants import RUN_KEYS, change_text
 from ..trajectory import same_step, step_label
 
-__all__ = ["flip_rows", "consistency", "accuracy", "usual_place", "CONSISTENT", "THEORY", "short_law", "where_text",
-           "accurate_text",
-           "invariants_text"]
+__all__ = ["flip_rows", "precession_rows", "motion_of", "consistency", "accuracy", "usual_place", "CONSISTENT",
+           "THEORY", "short_law", "where_text", "accurate_text", "invariants_text"]
 
 #: The checks that say whether a method behaves as its theory says (the rest judge accuracy: final-error, agreement).
 THEORY = ("runs", "order", "invariants", "expected-failure")
@@ -25,6 +24,12 @@ THEORY = ("runs", "order", "invariants", "expected-failure")
 #: of its engine explains the failure, the scenario expects it to fail, or there is nothing to check (an adaptive
 #: method has no order).
 CONSISTENT = ("yes", "no", "undecided", "known finding", "expected to fail", "—")
+
+
+def motion_of(run) -> dict:
+    """A run's motion numbers (:mod:`xcheck.motion`) for the answers that quote it: its ``flips`` and its
+    ``precession`` where measured, nothing else."""
+    return {key: getattr(run, key) for key in ("flips", "precession") if getattr(run, key)}
 
 
 def consistency(method: str, checks) -> str:
@@ -62,7 +67,7 @@ def accuracy(m, your_step: dict | None, tolerance: float | None = None) -> dict 
         return None
     return {"dt": run.dt, **({"rtol": run.rtol} if run.rtol is not None else {}), "yours": False,
             "error": run.max_attitude_error, "tolerance": tol, "within": run.max_attitude_error <= tol,
-            **{key: getattr(run, key) for key in RUN_KEYS}, **({"flips": run.flips} if run.flips else {})}
+            **{key: getattr(run, key) for key in RUN_KEYS}, **motion_of(run)}
 
 
 def usual_place(methods) -> str | None:
@@ -130,4 +135,25 @@ def flip_rows(st) -> tuple[str, list[tuple]] | None:
             delta = {k: None if f[k] is None or ref[k] is None else f[k] - ref[k] for k in ("first", "every")}
             rows.append((name, where_text(m.accurate), f["flips"], f["first"], delta["first"], f["every"],
                          delta["every"]))
+    return head, rows
+
+
+def precession_rows(st) -> tuple[str, list[tuple]] | None:
+    """A top's or an axisymmetric body's cone (:mod:`xcheck.motion`) for a table, as :func:`flip_rows`: the sentence
+    (what is measured, the reference's) and per method ``(name, step, precession [rad/s], Δ, nutation period [s],
+    Δ)`` at the step its accuracy is judged at (Δ against the reference at the run's own times: what the sampling
+    costs both cancels); None where the body is neither."""
+    if not st.precession:
+        return None
+    ref = st.precession["reference"]
+    nutation = ("" if ref["nutation_period"] is None else
+                f", nutation period {ref['nutation_period']:.6g} s ({ref['nutations']} periods measured)")
+    head = (f"precession and nutation ({st.precession['how']}): the reference precesses at {ref['precession']:.6g} "
+            f"rad/s{nutation}; Δ = the method's less the reference's measured the same way at the method's own times")
+    rows = []
+    for name, m in st.methods.items():
+        p = (m.accurate or {}).get("precession")
+        if p is not None:
+            rows.append((name, where_text(m.accurate), p["precession"], p["precession_error"], p["nutation_period"],
+                         p["nutation_error"]))
     return head, rows

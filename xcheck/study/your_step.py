@@ -14,7 +14,7 @@ from ..defaults import DEFAULT_CHECKS
 from ..invariants import RUN_KEYS
 from ..runners import RUNNERS
 from ..trajectory import same_step, step_label
-from .statements import short_law
+from .statements import motion_of, short_law
 
 __all__ = ["your_step_answer", "answer_line", "drift_words"]
 
@@ -47,7 +47,7 @@ def your_step_answer(scenario, steps, methods: dict, over_budget: dict) -> dict 
         else:
             out["methods"][name] = {"error": run.max_attitude_error, "within": run.max_attitude_error <= tolerance,
                                     **{key: getattr(run, key) for key in RUN_KEYS},  # its invariants, signed
-                                    **({"flips": run.flips} if run.flips else {})}  # a tumbler's (xcheck.motion)
+                                    **motion_of(run)}  # a tumbler's flips, a top's cone (xcheck.motion)
     return out
 
 
