@@ -95,8 +95,19 @@ class Runner:
         return None if self.cannot is None else self.cannot(model)
 
     def run_at(self, ctx: RunContext, dt: float, rtol: float | None = None) -> Trajectory:
-        """``run`` at the step ``dt`` and, for an adaptive method, the tolerance ``rtol`` (None: its defaults)."""
-        return self.run(ctx, dt) if rtol is None else self.run(ctx, dt, rtol)
+        """``run`` at the step ``dt`` and, for an adaptive method, the tolerance ``rtol`` (None: its defaults). What
+        an engine other than ours and MuJoCo (whose warnings it collects itself) writes to the standard error is
+        caught into the trajectory's ``extras["engine_said"]`` (:func:`xcheck.base.captured.engine_said`)."""
+        if self.engine in ("xcheck", "mujoco"):
+            return self.run(ctx, dt) if rtol is None else self.run(ctx, dt, rtol)
+        from .base.captured import engine_said
+
+        said = []
+        with engine_said(said):
+            traj = self.run(ctx, dt) if rtol is None else self.run(ctx, dt, rtol)
+        if said:
+            traj.extras["engine_said"] = said
+        return traj
 
     def order_for(self, torque: dict | None, model=None) -> tuple[int | None, str | None]:
         """The order expected of this method with a scenario's torque (and its ``model``'s own inputs: a gyrostat's

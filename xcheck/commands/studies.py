@@ -40,7 +40,7 @@ def list_all(*, ctx: Context) -> Outcome:
 
 def study_lines(st) -> list[str]:
     """A study as the terminal shows it: the verdict, one line per method, each failed or undecided check."""
-    from ..study import left_out_lines
+    from ..study import engine_said_lines, left_out_lines
     from ..study.checks import check_summary
     from ..study.your_step import answer_line
 
@@ -55,6 +55,7 @@ def study_lines(st) -> list[str]:
     lines += precession_table(st)
     lines += advice_block(st)
     lines += [f"  {line}" for line in left_out_lines(st)]
+    lines += [f"  {line}" for line in engine_said_lines(st)]
     if st.files:
         from .score import file_lines
 

@@ -378,7 +378,7 @@ def _answer_runs(st) -> list:
 
 
 def _scenario_blocks(st, figs) -> list:
-    from ..study import left_out_lines
+    from ..study import engine_said_lines, left_out_lines
 
     sc = st.scenario
     blocks = [Heading(2, sc.name, anchor=sc.name, badge=BADGES[st.outcome])]
@@ -460,6 +460,8 @@ def _scenario_blocks(st, figs) -> list:
         blocks.append(Table(["method", *(f"rtol {t:.0e}" for t in tols), "evaluations"], rows))
     for line in left_out_lines(st):  # never a silent gap
         blocks.append(Para([("Left out: ", "b"), (line + ".", None)], small=True))
+    for line in engine_said_lines(st):  # an engine's own warnings, caught (base.captured)
+        blocks.append(Para([("An engine said: ", "b"), (line, None)], small=True))
     blocks += _file_blocks(st)
     keys = [k for k in ("1e-03", "1e-06", "1e-09")]
     blocks.append(Para("What a tolerance costs: the largest step at which each method stays within it over the "

@@ -203,6 +203,26 @@ def method_steps(scenario: Scenario, method: str, steps, *, quick: bool = False)
     return tuple(kept), left, why
 
 
+def engine_said_lines(st: StudyResult) -> list[str]:
+    """What each method's engine wrote to the standard error in its runs (caught there: :mod:`xcheck.base.captured`),
+    a line per method and note, with the runs it came in: what the report and the terminal say of it."""
+    from ..trajectory import step_label
+    from .measure import SAID
+
+    out = []
+    for name, m in st.methods.items():
+        notes: dict = {}
+        for r in m.runs:
+            for part in (r.message or "").split("; "):
+                if SAID in part:
+                    notes.setdefault(part, []).append(r)
+        for note, runs in notes.items():
+            where = ("in every run" if len(runs) == len(m.runs) else
+                     f"in {len(runs)} of its {len(m.runs)} runs (at {', '.join(step_label(r.dt) for r in runs)} s)")
+            out.append(f"{name}, {where}: {note}")
+    return out
+
+
 def left_out_lines(st: StudyResult) -> list[str]:
     """What a study left out, one line for the methods left out for the same reason (at the same steps): those that
     cannot represent its body (:attr:`StudyResult.not_run`), an engine's steps beyond its budget

@@ -169,8 +169,9 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float,
     """One run's metrics against the reference ``ref`` (a failed :class:`Run` when the trajectory stopped or
     its errors are not finite); ``wall`` [s] is its wall time (the best of ``repeats`` runs), ``rtol`` an
     adaptive method's tolerance."""
+    said = _said(method, traj)
     if not traj.ok:
-        return Run.failed(dt, traj.status, traj.message, wall, rtol)
+        return Run.failed(dt, traj.status, "; ".join(x for x in (traj.message, said) if x), wall, rtol)
     q_ref, w_ref, mask = ref.at(traj.t)  # at the trajectory's own times (an engine's clock may round the step)
     err = (errors_against(traj, q_ref, w_ref) if mask.all() else
            errors_against(_subset(traj, mask), q_ref[mask], w_ref[mask]))
@@ -180,11 +181,29 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float,
               momentum_turn=kept["momentum_turn"], spin_change=kept.get("spin_change"), norm_drift=kept["norm_drift"],
               wheel_speed_error=_wheel_speed_error(traj, ctx.torque, q_ref, w_ref, mask),
               wall_time=wall, steps_per_second=_steps_per_second(dt, ctx.duration, wall),
-              message=traj.extras.get("clock") or "", repeats=repeats, evaluations=traj.extras.get("evaluations"),
+              message="; ".join(x for x in (traj.extras.get("clock"), said) if x), repeats=repeats,
+              evaluations=traj.extras.get("evaluations"),
               rtol=rtol, flips=flips_of(ctx.inertia, traj.t, traj.omega) if tumbles(ctx.inertia, ctx.omega0) else None)
     if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
         return Run.failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall, rtol)
     return run
+
+
+#: A run's note of what its engine wrote to the standard error starts with this, after the engine's name.
+SAID = " said: "
+
+
+def _said(method: str, traj) -> str:
+    """What the run's engine wrote to the standard error (:func:`xcheck.base.captured.engine_said`), as a run's note:
+    ``DART said: Warning [BodyNode.cpp:633] ...`` (its first three lines, and how many more); "" where nothing."""
+    lines = traj.extras.get("engine_said") or []
+    if not lines:
+        return ""
+    from .advice import ENGINE_NAMES
+
+    engine = RUNNERS[method].engine
+    more = f" (and {len(lines) - 3} more lines)" if len(lines) > 3 else ""
+    return f"{ENGINE_NAMES.get(engine, engine)}{SAID}{' | '.join(lines[:3])}{more}"
 
 
 def _laws(ctx: RunContext, traj, kept: dict) -> dict:
