@@ -140,6 +140,9 @@ class MethodRuns:
     reference_flips: dict | None = None
     #: the reference's own precession and nutation (:func:`xcheck.motion.precession_summary`), None elsewhere
     reference_precession: dict | None = None
+    #: what the method's engine was given for the body (:mod:`xcheck.engines.built`: ``{"body", "engine"}``), None:
+    #: an engine not known there
+    built: dict | None = None
 
     @classmethod
     def without_reference(cls, method: str, settings, reason: str) -> "MethodRuns":

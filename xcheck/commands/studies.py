@@ -54,6 +54,7 @@ def study_lines(st) -> list[str]:
     lines += flips_table(st)
     lines += precession_table(st)
     lines += advice_block(st)
+    lines += built_block(st)
     lines += [f"  {line}" for line in left_out_lines(st)]
     lines += [f"  {line}" for line in engine_said_lines(st)]
     if st.files:
@@ -138,6 +139,16 @@ def precession_table(st) -> list[str]:
             f"{nut:12.6g} {d_nut:+9.1e}" if d_nut is not None else f"{nut:12.6g} {'—':>9s}"
         out.append(f"  {name:{width}s} {at:>12s} {rate:19.7g} {d_rate:+10.1e} {nut_cells}")
     return out
+
+
+def built_block(st) -> list[str]:
+    """What each engine was given for the body, a line per engine (:mod:`xcheck.engines.built`)."""
+    from ..study.advice import ENGINE_NAMES
+
+    if not st.built:
+        return []
+    return [f"  what each engine was given ({st.built['body']}):",
+            *(f"    {ENGINE_NAMES.get(e, e)}: {text}" for e, text in st.built["engines"].items())]
 
 
 def advice_block(st) -> list[str]:

@@ -344,6 +344,17 @@ def _precession_blocks(st) -> list:
             Table(["method", "at", "precession [rad/s]", "Δ [rad/s]", "nutation period [s]", "Δ [s]"], cells)]
 
 
+def _built_blocks(st) -> list:
+    """What each engine was given for the body (:mod:`xcheck.engines.built`), a line per engine."""
+    from ..study.advice import ENGINE_NAMES
+
+    if not st.built:
+        return []
+    return [Para([("What each engine was given", "b"), (f" ({st.built['body']}): ", None),
+                  ("; ".join(f"{ENGINE_NAMES.get(e, e)}: {text}" for e, text in st.built["engines"].items()) + ".",
+                   None)], small=True)]
+
+
 def _advice_blocks(st) -> list:
     """What to use instead (:mod:`xcheck.study.advice`): a sentence, then a line per engine, what to write as code."""
     from ..study.advice import advice_parts
@@ -443,7 +454,7 @@ def _scenario_blocks(st, figs) -> list:
     blocks.append(Table(["method", "expected", "observed",
                          *(f"{step_label(d)} s" + (" (yours)" if d == yours else "") for d in st.steps), "steps/s",
                          "consistent", f"accurate {at}", "energy", "|L|", "L turned"], rows))
-    blocks += _flip_blocks(st) + _precession_blocks(st) + _advice_blocks(st)
+    blocks += _flip_blocks(st) + _precession_blocks(st) + _advice_blocks(st) + _built_blocks(st)
     if adaptive:
         tols = sorted({r.rtol for m in adaptive.values() for r in m.runs}, reverse=True)
         out_step = step_label(next(iter(adaptive.values())).runs[0].dt)

@@ -87,6 +87,9 @@ class StudyResult:
     #: what to use instead, per engine (:func:`~xcheck.study.advice.advice`): its cheapest method and largest studied
     #: step within the tolerance over the run
     advice: list = field(default_factory=list)
+    #: what each engine of the study was given for the body (:mod:`xcheck.engines.built`): ``{"body": the body in
+    #: words, "engines": engine -> sentence}``; {} where no method said
+    built: dict = field(default_factory=dict)
 
     @property
     def outcome(self) -> str:
@@ -133,7 +136,8 @@ class StudyResult:
                    if self.over_budget else {}),
                 **({"flips": dict(self.flips)} if self.flips else {}),
                 **({"precession": dict(self.precession)} if self.precession else {}),
-                **({"advice": list(self.advice)} if self.advice else {})}
+                **({"advice": list(self.advice)} if self.advice else {}),
+                **({"built": dict(self.built)} if self.built else {})}
 
 
 def default_methods(scenario: Scenario) -> list[str]:
@@ -468,7 +472,14 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
                        inconclusive=reasons, not_run={**{m: why for m, why in not_run(scenario).items()
                                                          if m not in methods and _offered(RUNNERS[m])}, **broken},
                        over_budget=over_budget, your_step=answer, flips=_flips(results), precession=_cone(results),
-                       advice=[] if reference_error else advice(scenario, methods))
+                       advice=[] if reference_error else advice(scenario, methods),
+                       built=_built(results))
+
+
+def _built(results) -> dict:
+    """The study's ``built`` (:attr:`StudyResult.built`) from its methods' runs."""
+    said = [(RUNNERS[res.method].engine, res.built) for res in results if res.built]
+    return {"body": said[0][1]["body"], "engines": {e: b["engine"] for e, b in said}} if said else {}
 
 
 def _cone(results) -> dict | None:

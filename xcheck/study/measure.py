@@ -95,8 +95,22 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
             comparisons.append(_compare(scenario, ctx, traj, method, partner, dt))
     series = _sample(finest, ref, ctx) if finest is not None and sample else None
     return MethodRuns(method, runs, series=series, comparisons=[c for c in comparisons if c is not None],
-                      reference_check=ref.check, reference_flips=ref.flips(),
+                      reference_check=ref.check, reference_flips=ref.flips(), built=_built(runner, ctx),
                       reference_precession=None if ref.precession() is None else ref.precession()["reference"])
+
+
+def _built(runner, ctx) -> dict | None:
+    """What the method's engine was given for the body: ``{"body": ..., "engine": ...}``
+    (:mod:`xcheck.engines.built`), None for an engine not known there."""
+    from ..engines.built import body_built, how_built
+    from ..engines.mechanism import mechanism_of
+
+    try:
+        mechanism = mechanism_of(ctx)
+    except ValueError:  # a bus that is no rigid body: the engine's run says so
+        mechanism = None
+    engine = how_built(runner.engine, mechanism)
+    return None if engine is None else {"body": body_built(mechanism), "engine": engine}
 
 
 def _cone_against(traj, ref, cone) -> dict | None:
