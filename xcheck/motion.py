@@ -22,8 +22,11 @@ between the roots of Lagrange's cubic; its period is the mean time between succe
 middle of the reference's range of ``u`` (placed between samples, as the flips), None where ``u`` does not
 oscillate (a steady precession, a torque-free cone). **Precession**: the mean rate of the azimuth [rad/s], over
 the whole nutation periods between the first and the last of those crossings (the mean over a period is the
-motion's own number), over the whole run where there are fewer than two. Both are measured where a run's step is at
-most 1/32 of the reference's nutation period (of its precession period without nutation).
+motion's own number), over the whole run where there are fewer than two. **The cone's change** (a wobble's decay):
+the angle between the axis and the pole, its mean over the last whole nutation period less over the first, or at
+the end less at the start without nutation [rad]: + the cone widened, - it narrowed; the reference's is 0 up to its
+own accuracy (the exact motion keeps the cone, or repeats it each nutation period). All are measured where a run's
+step is at most 1/32 of the reference's nutation period (of its precession period without nutation).
 
 Core: numpy only."""
 
@@ -174,20 +177,34 @@ def cone_of(q, axis, pole):
 
 
 def precession_summary(t, u, azimuth, level: float | None) -> dict:
-    """``{"precession": rate [rad/s], "nutation_period": [s] or None, "nutations": whole periods measured}`` of the
-    samples (see the module); ``level``: the middle of the reference's range of ``u`` (None: no nutation)."""
+    """``{"precession": rate [rad/s], "nutation_period": [s] or None, "nutations": whole periods measured,
+    "cone_change": [rad]}`` of the samples (see the module); ``level``: the middle of the reference's range of ``u``
+    (None: no nutation). ``cone_change``: how far the cone (the angle between the axis and the pole) widened (+) or
+    narrowed (-): its mean over the last nutation period less over the first (0 with fewer than two), or its end less
+    its start without nutation: a wobble's decay."""
     t = np.asarray(t, dtype=float)
     up = np.array([])
     if level is not None:
         x = np.asarray(u, dtype=float) - level
         i = np.flatnonzero((x[:-1] < 0) & (x[1:] >= 0))
         up = t[i] - x[i] * (t[i + 1] - t[i]) / (x[i + 1] - x[i])
+    cone = np.arccos(np.clip(np.asarray(u, dtype=float), -1.0, 1.0))
     if len(up) > 1:
         phi = np.interp(up[[0, -1]], t, azimuth)
         return {"precession": float((phi[1] - phi[0]) / (up[-1] - up[0])),
-                "nutation_period": float((up[-1] - up[0]) / (len(up) - 1)), "nutations": len(up) - 1}
+                "nutation_period": float((up[-1] - up[0]) / (len(up) - 1)), "nutations": len(up) - 1,
+                "cone_change": (_mean_over(t, cone, up[-2], up[-1]) - _mean_over(t, cone, up[0], up[1])
+                                if len(up) > 2 else 0.0)}
     return {"precession": float((azimuth[-1] - azimuth[0]) / (t[-1] - t[0])), "nutation_period": None,
-            "nutations": 0}
+            "nutations": 0, "cone_change": float(cone[-1] - cone[0])}
+
+
+def _mean_over(t, x, a: float, b: float) -> float:
+    """The mean of the samples ``x`` of ``t`` over ``[a, b]`` (trapezoids, the ends interpolated)."""
+    inside = (t > a) & (t < b)
+    tt = np.concatenate([[a], t[inside], [b]])
+    xx = np.concatenate([[np.interp(a, t, x)], x[inside], [np.interp(b, t, x)]])
+    return float(np.sum(0.5 * (xx[1:] + xx[:-1]) * np.diff(tt)) / (b - a))
 
 
 def nutation_level(u) -> float | None:

@@ -133,11 +133,11 @@ def precession_table(st) -> list[str]:
     head, rows = table
     width = max([22, *map(len, st.methods)])
     out = [f"  {head}", f"  {'method':{width}s} {'at':>12s} {'precession [rad/s]':>19s} {'Δ [rad/s]':>10s} "
-                        f"{'nutation [s]':>12s} {'Δ [s]':>9s}"]
-    for name, at, rate, d_rate, nut, d_nut in rows:
+                        f"{'nutation [s]':>12s} {'Δ [s]':>9s} {'cone Δ [rad]':>12s}"]
+    for name, at, rate, d_rate, nut, d_nut, d_cone in rows:
         nut_cells = f"{'—':>12s} {'—':>9s}" if nut is None else \
             f"{nut:12.6g} {d_nut:+9.1e}" if d_nut is not None else f"{nut:12.6g} {'—':>9s}"
-        out.append(f"  {name:{width}s} {at:>12s} {rate:19.7g} {d_rate:+10.1e} {nut_cells}")
+        out.append(f"  {name:{width}s} {at:>12s} {rate:19.7g} {d_rate:+10.1e} {nut_cells} {d_cone:+12.1e}")
     return out
 
 

@@ -338,10 +338,12 @@ def _precession_blocks(st) -> list:
         return []
     head, rows = table
     cells = [[name, at, *(Cell("—" if v is None else f"{v:{'+.1e' if k % 2 else '.7g'}}", num=True)
-                          for k, v in enumerate((rate, d_rate, nut, d_nut)))]
-             for name, at, rate, d_rate, nut, d_nut in rows]
+                          for k, v in enumerate((rate, d_rate, nut, d_nut, None, d_cone))
+                          if k != 4)]
+             for name, at, rate, d_rate, nut, d_nut, d_cone in rows]
     return [Para(head[0].upper() + head[1:] + ".", small=True),
-            Table(["method", "at", "precession [rad/s]", "Δ [rad/s]", "nutation period [s]", "Δ [s]"], cells)]
+            Table(["method", "at", "precession [rad/s]", "Δ [rad/s]", "nutation period [s]", "Δ [s]",
+                   "cone Δ [rad]"], cells)]
 
 
 def _built_blocks(st) -> list:

@@ -125,7 +125,8 @@ def _cone_against(traj, ref, cone) -> dict | None:
     want = precession_of(traj.t, q_ref, cone["frame"], cone["level"])
     nutation = (None if got["nutation_period"] is None or want["nutation_period"] is None else
                 got["nutation_period"] - want["nutation_period"])
-    return {**got, "precession_error": got["precession"] - want["precession"], "nutation_error": nutation}
+    return {**got, "precession_error": got["precession"] - want["precession"], "nutation_error": nutation,
+            "cone_error": got["cone_change"] - want["cone_change"]}
 
 
 def _compare(scenario, ctx, traj, method: str, partner: str, dt: float, now: bool = False) -> dict | None:

@@ -141,19 +141,21 @@ def flip_rows(st) -> tuple[str, list[tuple]] | None:
 def precession_rows(st) -> tuple[str, list[tuple]] | None:
     """A top's or an axisymmetric body's cone (:mod:`xcheck.motion`) for a table, as :func:`flip_rows`: the sentence
     (what is measured, the reference's) and per method ``(name, step, precession [rad/s], Δ, nutation period [s],
-    Δ)`` at the step its accuracy is judged at (Δ against the reference at the run's own times: what the sampling
-    costs both cancels); None where the body is neither."""
+    Δ, the cone's change less the reference's [rad])`` at the step its accuracy is judged at (Δ against the
+    reference at the run's own times: what the sampling costs both cancels); None where the body is neither."""
     if not st.precession:
         return None
     ref = st.precession["reference"]
     nutation = ("" if ref["nutation_period"] is None else
                 f", nutation period {ref['nutation_period']:.6g} s ({ref['nutations']} periods measured)")
     head = (f"precession and nutation ({st.precession['how']}): the reference precesses at {ref['precession']:.6g} "
-            f"rad/s{nutation}; Δ = the method's less the reference's measured the same way at the method's own times")
+            f"rad/s{nutation}; Δ = the method's less the reference's measured the same way at the method's own times; "
+            "cone Δ: how much more the cone between the axis and the pole widened (+) or narrowed (-) than the "
+            "reference's, a wobble's decay")
     rows = []
     for name, m in st.methods.items():
         p = (m.accurate or {}).get("precession")
         if p is not None:
             rows.append((name, where_text(m.accurate), p["precession"], p["precession_error"], p["nutation_period"],
-                         p["nutation_error"]))
+                         p["nutation_error"], p["cone_error"]))
     return head, rows
