@@ -31,6 +31,19 @@ def test_what_dart_writes_to_the_standard_error_is_caught_not_shown(capfd):
     assert clean_lines("\x1b[1;33mA\x1b[0m x\n\nA x\nB") == ["A x", "B"]  # each line once, in order
 
 
+def test_an_engines_python_writes_are_caught_too():
+    """In a process of its own (where sys.stderr is file descriptor 2, as in a user's run): a write left in Python's
+    buffer (no newline) is caught with the C++ ones, and the process' standard error stays empty."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom xcheck.base.captured import engine_said\nlines = []\nwith engine_said(lines):\n"
+            "    sys.stderr.write('an engine said this')\nprint(lines)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    assert proc.stdout.strip() == "['an engine said this']"
+
+
 def test_a_runs_engine_warning_is_in_its_note_and_the_studys_lines(capfd, monkeypatch):
     """A DART run during which DART warns: the run's note says "DART said: Warning [BodyNode.cpp:...", the study's
     lines name the method and the runs, and nothing reached the terminal."""

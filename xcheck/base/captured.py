@@ -41,6 +41,7 @@ def engine_said(lines: list):
         os.dup2(_FILE.fileno(), 2)
         yield lines
     finally:
+        sys.stderr.flush()  # Python's own writes in the block (a warning) land in the file too
         os.dup2(saved, 2)
         os.close(saved)
         _FILE.seek(0)
