@@ -169,7 +169,10 @@ def top_frame(inertia, q0, omega0, torque=None):
 def cone_of(q, axis, pole):
     """``(u, azimuth)`` per sample of ``q`` (n, 4): the axis' height ``a · p`` and its azimuth about ``p`` [rad],
     unwrapped (see the module)."""
-    a = rot.quat_rotate(np.asarray(q, dtype=float), axis)
+    q = np.asarray(q, dtype=float)
+    w, v = q[:, :1] / np.linalg.norm(q, axis=1, keepdims=True), q[:, 1:] / np.linalg.norm(q, axis=1, keepdims=True)
+    t = 2.0 * np.cross(v, axis)
+    a = axis + w * t + np.cross(v, t)  # R(q) e without the checks of rotations.quat_rotate (a run's own rows)
     e1 = np.cross(pole, [1.0, 0.0, 0.0] if abs(pole[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(pole, e1)

@@ -18,7 +18,7 @@ from ..reference import ReferenceFailure
 from ..results import MethodRuns, Run
 from ..runners import RUNNERS, RunContext
 from ..scenario import Scenario
-from ..trajectory import step_plan
+from ..trajectory import same_step, step_plan
 from .context import run_context, scenario_key, scenario_reference
 
 __all__ = ["run_methods", "run_method", "measure_method", "measure_run", "timed_run", "settings", "PLOT_SAMPLE_DT"]
@@ -80,23 +80,33 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
             runs.append(Run.failed(dt, "failed", f"{method}: {exc}", time.perf_counter() - t0, rtol))
             continue
         run = measure_run(method, traj, ref, ctx, dt, wall, repeats=repeats, rtol=rtol)
-        if run.flips is not None and not resolves_flips(dt, ref.flips()):
-            run.flips = None
-        cone = ref.precession() if run.ok else None
-        if cone is not None and resolves_precession(dt, cone["reference"]):
-            run.precession = _cone_against(traj, ref, cone)
         runs.append(run)
         if not run.ok:
             continue
         if timing:
             _retime_outliers(runner, ctx, runs)
-        finest = (dt, traj)
+        if rtol is None and scenario.your_step is not None and same_step(dt, scenario.your_step):
+            _motion(run, traj, ref, ctx)
+        finest = (dt, traj, run)
         if partner is not None:
             comparisons.append(_compare(scenario, ctx, traj, method, partner, dt))
-    series = _sample(finest, ref, ctx) if finest is not None and sample else None
+    if finest is not None:
+        _motion(finest[2], finest[1], ref, ctx)
+    series = _sample(finest[:2], ref, ctx) if finest is not None and sample else None
     return MethodRuns(method, runs, series=series, comparisons=[c for c in comparisons if c is not None],
                       reference_check=ref.check, reference_flips=ref.flips(), built=_built(runner, ctx),
                       reference_precession=None if ref.precession() is None else ref.precession()["reference"])
+
+
+def _motion(run: Run, traj, ref, ctx: RunContext) -> None:
+    """The motion's own numbers of a run (:mod:`xcheck.motion`: a tumbler's flips, a top's cone), where its step
+    resolves the reference's; measured for the runs the answers quote only (the user's step, the finest: a study's
+    other runs would cost a millisecond each for numbers nobody reads)."""
+    if tumbles(ctx.inertia, ctx.omega0) and resolves_flips(run.dt, ref.flips()):
+        run.flips = flips_of(ctx.inertia, traj.t, traj.omega)
+    cone = ref.precession()
+    if cone is not None and resolves_precession(run.dt, cone["reference"]):
+        run.precession = _cone_against(traj, ref, cone)
 
 
 def _built(runner, ctx) -> dict | None:
@@ -198,7 +208,7 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float,
               wall_time=wall, steps_per_second=_steps_per_second(dt, ctx.duration, wall),
               message="; ".join(x for x in (traj.extras.get("clock"), said) if x), repeats=repeats,
               evaluations=traj.extras.get("evaluations"),
-              rtol=rtol, flips=flips_of(ctx.inertia, traj.t, traj.omega) if tumbles(ctx.inertia, ctx.omega0) else None)
+              rtol=rtol)
     if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
         return Run.failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall, rtol)
     return run
