@@ -77,14 +77,17 @@ def test_markdown_and_html_show_the_same_tables_and_figures(report):
     md = (report / "report.md").read_text()
     parser = _Tables()
     parser.feed((report / "index.html").read_text())
-    # front table, checks, methods, what a tolerance costs, throughput
-    assert len(parser.tables) == 5
+    # front table, checks, methods, the tumbler's flips (issue 62), what a tolerance costs, throughput
+    assert len(parser.tables) == 6
     assert markdown_tables(md) == parser.tables
     assert parser.tables[2]["header"] == ["method", "expected", "observed", "1/8 s", "1/16 s", "1/32 s", "steps/s",
                                           "consistent", "accurate at its finest step", "energy", "|L|", "L turned"]
     assert parser.tables[2]["rows"] == 4  # header + 3 methods
-    assert parser.tables[3]["header"] == ["method", "within 1e-03 rad", "within 1e-06 rad", "within 1e-09 rad"]
-    assert parser.tables[3]["rows"] == 4
+    assert parser.tables[3]["header"] == ["method", "at", "flips", "first [s]", "Δ first [s]", "every [s]",
+                                          "Δ every [s]"]
+    assert parser.tables[3]["rows"] == 4  # header + the 3 methods' flips
+    assert parser.tables[4]["header"] == ["method", "within 1e-03 rad", "within 1e-06 rad", "within 1e-09 rad"]
+    assert parser.tables[4]["rows"] == 4
     md_figures = re.findall(r"^!\[(.*)\]\(plots/(.*)\)$", md, flags=re.M)
     assert [caption for caption, _ in md_figures] == parser.figures and len(parser.figures) >= 3
     assert all((report / "plots" / file).is_file() for _, file in md_figures)
