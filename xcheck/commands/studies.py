@@ -105,45 +105,41 @@ def method_table(st) -> list[str]:
     return out
 
 
-def flips_table(st) -> list[str]:
-    """A tumbling body's flips per method (:func:`~xcheck.study.statements.flip_rows`); [] where it does not tumble."""
-    from ..study.statements import flip_rows
-
-    table = flip_rows(st)
+def _motion_table(st, table, columns) -> list[str]:
+    """A motion table (:func:`~xcheck.study.statements.flip_rows`' or ``precession_rows``' ``(head, rows)``) in the
+    terminal: ``columns`` one ``(title, width, format)`` per value after the method and its step ("—" for None)."""
     if table is None:
         return []
     head, rows = table
     width = max([22, *map(len, st.methods)])
-    out = [f"  {head}", f"  {'method':{width}s} {'at':>12s} {'flips':>5s} {'first [s]':>11s} {'Δ first [s]':>12s} "
-                        f"{'every [s]':>11s} {'Δ every [s]':>12s}"]
-    for name, at, n, first, d_first, every, d_every in rows:
-        cells = [f"{v:11.6g}" if v is not None else f"{'—':>11s}" for v in (first, every)]
-        deltas = [f"{v:+12.1e}" if v is not None else f"{'—':>12s}" for v in (d_first, d_every)]
-        out.append(f"  {name:{width}s} {at:>12s} {n:5d} {cells[0]} {deltas[0]} {cells[1]} {deltas[1]}")
+    out = [f"  {head}", f"  {'method':{width}s} {'at':>12s} " + " ".join(f"{t:>{w}s}" for t, w, _ in columns)]
+    for name, at, *values in rows:
+        cells = (f"{'—':>{w}s}" if v is None else f"{v:{fmt.format(w)}}" for v, (_, w, fmt) in zip(values, columns))
+        out.append(f"  {name:{width}s} {at:>12s} " + " ".join(cells))
     return out
+
+
+def flips_table(st) -> list[str]:
+    """A tumbling body's flips per method (:func:`~xcheck.study.statements.flip_rows`); [] where it does not tumble."""
+    from ..study.statements import flip_rows
+
+    return _motion_table(st, flip_rows(st), [("flips", 5, "{}d"), ("first [s]", 11, "{}.6g"),
+                                             ("Δ first [s]", 12, "+{}.1e"), ("every [s]", 11, "{}.6g"),
+                                             ("Δ every [s]", 12, "+{}.1e")])
 
 
 def precession_table(st) -> list[str]:
     """A top's or an axisymmetric body's cone per method (:func:`~xcheck.study.statements.precession_rows`)."""
     from ..study.statements import precession_rows
 
-    table = precession_rows(st)
-    if table is None:
-        return []
-    head, rows = table
-    width = max([22, *map(len, st.methods)])
-    out = [f"  {head}", f"  {'method':{width}s} {'at':>12s} {'precession [rad/s]':>19s} {'Δ [rad/s]':>10s} "
-                        f"{'nutation [s]':>12s} {'Δ [s]':>9s} {'cone Δ [rad]':>12s}"]
-    for name, at, rate, d_rate, nut, d_nut, d_cone in rows:
-        nut_cells = f"{'—':>12s} {'—':>9s}" if nut is None else \
-            f"{nut:12.6g} {d_nut:+9.1e}" if d_nut is not None else f"{nut:12.6g} {'—':>9s}"
-        out.append(f"  {name:{width}s} {at:>12s} {rate:19.7g} {d_rate:+10.1e} {nut_cells} {d_cone:+12.1e}")
-    return out
+    return _motion_table(st, precession_rows(st), [("precession [rad/s]", 19, "{}.7g"), ("Δ [rad/s]", 10, "+{}.1e"),
+                                                   ("nutation [s]", 12, "{}.6g"), ("Δ [s]", 9, "+{}.1e"),
+                                                   ("cone Δ [rad]", 12, "+{}.1e")])
 
 
 def built_block(st) -> list[str]:
     """What each engine was given for the body, a line per engine (:mod:`xcheck.engines.built`)."""
-    from ..study.advice import ENGINE_NAMES
+    from ..engines.built import ENGINE_NAMES
 
     if not st.built:
         return []

@@ -8,10 +8,13 @@ from __future__ import annotations
 
 from .mechanism import WHEEL_MASS_FRACTION, Gyrostat, Top
 
-__all__ = ["how_built", "body_built", "BUILT"]
+__all__ = ["how_built", "body_built", "BUILT", "ENGINE_NAMES"]
 
 _WHEELS = (f"each wheel {WHEEL_MASS_FRACTION:.0%} of the mass at the common centre of mass, its transverse moment "
            "half its axial one (only the axial moment turns the bus)")
+#: How an engine is named in a sentence.
+ENGINE_NAMES = {"xcheck": "xcheck (ours)", "mujoco": "MuJoCo", "basilisk": "Basilisk", "pybullet": "PyBullet",
+                "dart": "DART", "drake": "Drake", "exudyn": "EXUDYN", "mjx": "MJX"}
 #: Per engine and kind of body (free, top, gyrostat): what it was given.
 BUILT = {
     "xcheck": {"free": "the body's inertia tensor about its centre of mass (from the MJCF), torques as xcheck's "

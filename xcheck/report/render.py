@@ -317,38 +317,32 @@ def _front_cell(st, name) -> Cell:
     return Cell(f"{text} · {fmt(finest.attitude_error if finest else None, '.1e')}", m.verdict)
 
 
-def _flip_blocks(st) -> list:
-    """A tumbling body's flips per method (:func:`~xcheck.study.statements.flip_rows`): the sentence and the table."""
-    table = flip_rows(st)
+def _motion_blocks(table, headers, formats) -> list:
+    """A motion table (:func:`~xcheck.study.statements.flip_rows`' or ``precession_rows``' ``(head, rows)``): its
+    sentence and its table, ``formats`` one per value after the method and its step ("—" for None)."""
     if table is None:
         return []
     head, rows = table
-    cells = [[name, at, Cell(str(n), num=True),
-              *(Cell("—" if v is None else f"{v:{'+.1e' if k % 2 else '.6g'}}", num=True)
-                for k, v in enumerate((first, d_first, every, d_every)))]
-             for name, at, n, first, d_first, every, d_every in rows]
-    return [Para(head[0].upper() + head[1:] + ".", small=True),
-            Table(["method", "at", "flips", "first [s]", "Δ first [s]", "every [s]", "Δ every [s]"], cells)]
+    cells = [[name, at, *(Cell("—" if v is None else f"{v:{f}}", num=True) for v, f in zip(values, formats))]
+             for name, at, *values in rows]
+    return [Para(head[0].upper() + head[1:] + ".", small=True), Table(["method", "at", *headers], cells)]
+
+
+def _flip_blocks(st) -> list:
+    """A tumbling body's flips per method (:func:`~xcheck.study.statements.flip_rows`): the sentence and the table."""
+    return _motion_blocks(flip_rows(st), ["flips", "first [s]", "Δ first [s]", "every [s]", "Δ every [s]"],
+                          ["d", ".6g", "+.1e", ".6g", "+.1e"])
 
 
 def _precession_blocks(st) -> list:
     """A top's or an axisymmetric body's cone per method (:func:`~xcheck.study.statements.precession_rows`)."""
-    table = precession_rows(st)
-    if table is None:
-        return []
-    head, rows = table
-    cells = [[name, at, *(Cell("—" if v is None else f"{v:{'+.1e' if k % 2 else '.7g'}}", num=True)
-                          for k, v in enumerate((rate, d_rate, nut, d_nut, None, d_cone))
-                          if k != 4)]
-             for name, at, rate, d_rate, nut, d_nut, d_cone in rows]
-    return [Para(head[0].upper() + head[1:] + ".", small=True),
-            Table(["method", "at", "precession [rad/s]", "Δ [rad/s]", "nutation period [s]", "Δ [s]",
-                   "cone Δ [rad]"], cells)]
+    return _motion_blocks(precession_rows(st), ["precession [rad/s]", "Δ [rad/s]", "nutation period [s]", "Δ [s]",
+                                                "cone Δ [rad]"], [".7g", "+.1e", ".7g", "+.1e", "+.1e"])
 
 
 def _built_blocks(st) -> list:
     """What each engine was given for the body (:mod:`xcheck.engines.built`), a line per engine."""
-    from ..study.advice import ENGINE_NAMES
+    from ..engines.built import ENGINE_NAMES
 
     if not st.built:
         return []

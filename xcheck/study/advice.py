@@ -19,6 +19,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..defaults import DEFAULT_CHECKS
+from ..engines.built import ENGINE_NAMES
 from ..paths import BUNDLED_MODELS
 from ..runners import RUNNERS
 from ..trajectory import step_label
@@ -28,9 +29,6 @@ __all__ = ["advice", "advised_run", "advice_parts", "advice_lines", "MJCF_INTEGR
 #: MuJoCo's methods by the name of the integrator in MJCF's ``<option integrator=...>``.
 MJCF_INTEGRATORS = {"mujoco-euler": "Euler", "mujoco-rk4": "RK4", "mujoco-implicit": "implicit",
                     "mujoco-implicitfast": "implicitfast"}
-#: How an engine is named in a sentence.
-ENGINE_NAMES = {"xcheck": "xcheck (ours)", "mujoco": "MuJoCo", "basilisk": "Basilisk", "pybullet": "PyBullet",
-                "dart": "DART", "drake": "Drake", "exudyn": "EXUDYN", "mjx": "MJX"}
 
 
 def advised_run(m, tolerance: float):

@@ -98,6 +98,13 @@ class _Reference:
         self._grids = [(t.copy(), values), *self._grids[:15]]
         return values
 
+    def _grid(self):
+        """The times the motion's numbers sample the reference at: 64 a period of the motion
+        (:func:`xcheck.reference.own_period`), at least 8193 over the run, at most 2e6."""
+        ctx = self.ctx
+        period = own_period(ctx.inertia, ctx.q0, ctx.omega0, ctx.torque) or ctx.duration
+        return np.linspace(0.0, ctx.duration, int(min(max(8192, 64 * ctx.duration / period), 2e6)) + 1)
+
     def flips(self):
         """The reference's own flips where the body tumbles (:mod:`xcheck.motion`: each sign change of the rate
         about the intermediate axis bisected on the reference itself, a fine run's on its grid), None elsewhere or
@@ -106,12 +113,10 @@ class _Reference:
             self._flips = None
             ctx = self.ctx
             if tumbles(ctx.inertia, ctx.omega0):
-                period = own_period(ctx.inertia, ctx.q0, ctx.omega0, ctx.torque) or ctx.duration
-                grid = np.linspace(0.0, ctx.duration, int(min(max(8192, 64 * ctx.duration / period), 2e6)) + 1)
                 if self.used == "fine":
                     times = crossings(self.fine.t, intermediate_rate(ctx.inertia, self.fine.omega))
                 else:
-                    times = refined_crossings(lambda t: intermediate_rate(ctx.inertia, self._at(t)[1]), grid)
+                    times = refined_crossings(lambda t: intermediate_rate(ctx.inertia, self._at(t)[1]), self._grid())
                 self._flips = flip_summary(times) if len(times) else None
         return self._flips
 
@@ -127,8 +132,7 @@ class _Reference:
                 if self.used == "fine":
                     t, q = self.fine.t, self.fine.q
                 else:
-                    period = own_period(ctx.inertia, ctx.q0, ctx.omega0, ctx.torque) or ctx.duration
-                    t = np.linspace(0.0, ctx.duration, int(min(max(8192, 64 * ctx.duration / period), 2e6)) + 1)
+                    t = self._grid()
                     q = self._at(t)[0]
                 u, azimuth = cone_of(q, *frame)
                 level = nutation_level(u)

@@ -95,7 +95,7 @@ def measure_method(scenario: Scenario, method: str, steps: tuple, partner: str |
     series = _sample(finest[:2], ref, ctx) if finest is not None and sample else None
     return MethodRuns(method, runs, series=series, comparisons=[c for c in comparisons if c is not None],
                       reference_check=ref.check, reference_flips=ref.flips(), built=_built(runner, ctx),
-                      reference_precession=None if ref.precession() is None else ref.precession()["reference"])
+                      reference_precession=(ref.precession() or {}).get("reference"))
 
 
 def _motion(run: Run, traj, ref, ctx: RunContext) -> None:
@@ -224,7 +224,7 @@ def _said(method: str, traj) -> str:
     lines = traj.extras.get("engine_said") or []
     if not lines:
         return ""
-    from .advice import ENGINE_NAMES
+    from ..engines.built import ENGINE_NAMES
 
     engine = RUNNERS[method].engine
     more = f" (and {len(lines) - 3} more lines)" if len(lines) > 3 else ""
