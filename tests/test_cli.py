@@ -164,6 +164,22 @@ def test_golden_comparison_sees_a_changed_number():
     assert len(compare(changed, want)) == 2 and compare(want, want) == []
 
 
+def test_golden_comparison_of_a_files_growth_is_an_orders():
+    """A trajectory file's error growth t^p is a log-log fit, compared like an order (to 1e-3): SIM 01's moved by
+    2e-7 between two AMD EPYC machines (the copy's 1.1056273570, 1.1056275557 measured here); 0.01 is a change."""
+    from golden import GOLDEN, compare
+
+    want = json.loads(GOLDEN.read_text())
+    i = next(i for i, s in enumerate(want["scenarios"]) if s["scenario"] == "nesc-tumbling-brick")
+
+    def moved(by):
+        doc = json.loads(GOLDEN.read_text())
+        doc["scenarios"][i]["files"]["SIM 01"]["growth"] += by
+        return compare(doc, want)
+
+    assert moved(2e-7) == [] and moved(9e-4) == [] and len(moved(1e-2)) == 1
+
+
 def test_golden_comparison_allows_blas_round_off_and_nothing_more():
     """Through BLAS (the dop853 reference, scipy-rk45) numbers may move within the study's floor; a move beyond
     it, a changed verdict, or an order lost while the floor stayed put is a difference."""
