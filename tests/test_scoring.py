@@ -146,6 +146,49 @@ def test_the_scenario_scores_its_files_in_its_study_and_score_gives_the_same_num
     assert "SIM 02: largest attitude error 0.0648 rad" in capsys.readouterr().out
 
 
+def test_a_nasa_file_under_another_name_is_read_as_the_scenario_declares_its_layout(tmp_path, capsys):
+    """Issue 63: a file of NASA's check case 2, copied under a name the scenario does not list and with no sidecar,
+    has the header the scenario's five [[trajectory]] tables declare; ``score`` reads it so (said, and in the JSON)
+    and gives the numbers the scenario's own row gives (SIM 05: passed, exit 0; SIM 02: its drift, exit 1). The code
+    before refused it, exit 2, for want of xcheck's own columns (qw, qx, qy, qz)."""
+    nesc = NESC.path.parent.parent / "nesc"
+    for k, code in (("05", 0), ("02", 1)):
+        own, mine = tmp_path / f"own{k}.json", tmp_path / f"mine{k}.json"
+        copy = tmp_path / f"downloaded_case2_{k}.csv"
+        copy.write_bytes((nesc / f"Atmos_02_sim_{k}.csv").read_bytes())
+        assert main(["score", str(nesc / f"Atmos_02_sim_{k}.csv"), "--scenario", NESC.name, "--json", str(own)]) == code
+        assert main(["score", str(copy), "--scenario", NESC.name, "--json", str(mine)]) == code
+        a, b = json.loads(own.read_text()), json.loads(mine.read_text())
+        for key in ("max_attitude_error", "max_rate_error", "growth", "rows", "outcome", "convention", "tolerance"):
+            assert b[key] == a[key], key
+        assert b["name"] == f"downloaded_case2_{k}" and "declared_by" not in a
+        assert b["declared_by"].startswith("nesc-tumbling-brick's [[trajectory]] 'SIM 01', tolerance included")
+    assert "declared by: nesc-tumbling-brick's [[trajectory]] 'SIM 01'" in capsys.readouterr().out
+
+
+def test_declarations_that_read_one_header_differently_are_refused_by_name(tmp_path):
+    """Where two of a scenario's tables have the file's columns but read them differently (degrees and radians),
+    which one applies is the user's to say: refused naming both and --declaration; a header none has falls to
+    xcheck's own CSV, as before."""
+    from dataclasses import replace
+
+    from xcheck.commands.score import _by_header
+    from xcheck.scenario import ScenarioError
+
+    copy = tmp_path / "case2.csv"
+    copy.write_bytes(NESC.trajectories[0].file.read_bytes())
+    two = replace(NESC, trajectories=[NESC.trajectories[0], replace(NESC.trajectories[1], angle_unit="rad")])
+    with pytest.raises(ScenarioError, match=r"case2.csv: its header has the columns of 2 of nesc-tumbling-brick's "
+                                            r"\[\[trajectory\]\] tables \('SIM 01', 'SIM 02'\).*--declaration"):
+        _by_header(copy, two)
+    conv, said = _by_header(copy, replace(NESC, trajectories=NESC.trajectories[:1]))
+    assert conv.file == copy.resolve() and conv.name == "case2" and conv.angle_unit == "deg" and "'SIM 01'" in said
+    assert "as " not in said.split("declares")[-1]  # one table: no "as N more of its tables do"
+    other = tmp_path / "other.csv"
+    other.write_text("t_s,qw,qx,qy,qz\n0,1,0,0,0\n1,1,0,0,0\n")
+    assert _by_header(other, NESC) == (None, None)
+
+
 # ------------------------------------------------------------------------------------------------------
 # the convention detective: a file made from the reference with each mistake put in
 # ------------------------------------------------------------------------------------------------------

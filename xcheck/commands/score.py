@@ -33,7 +33,8 @@ def file_lines(scores) -> list[str]:
 
 def score(*, file: str, scenario: str, declaration: str | None, json: str | None, ctx: Context) -> ScoreOutcome:
     """Score ``file`` against ``scenario``'s reference: read as the scenario's ``[[trajectory]]`` for it declares,
-    else as ``declaration`` (or the sidecar ``FILE.toml``) declares, else as xcheck's own CSV."""
+    else as ``declaration`` (or the sidecar ``FILE.toml``) declares, else as a ``[[trajectory]]`` of the scenario
+    whose columns its header has declares (:func:`_by_header`), else as xcheck's own CSV."""
     from pathlib import Path
 
     from ..base.files import check_output_file, write_json_atomic
@@ -46,15 +47,48 @@ def score(*, file: str, scenario: str, declaration: str | None, json: str | None
         check_output_file(json, "--json", suffixes=(".json",))
     path = Path(file)
     conv = next((c for c in sc.trajectories if path.exists() and c.file == path.resolve()), None)
+    declared_by = None
+    if conv is None and not declaration and not path.with_name(path.name + ".toml").is_file():
+        conv, declared_by = _by_header(path, sc)
     if conv is None or declaration:
         conv = load_declaration(path, declaration=declaration, earth=sc.earth)
     ctx_run = run_context(sc)
     s = score_file(conv, scenario_reference(sc).at, inertia=ctx_run.inertia, duration=sc.duration, earth=sc.earth,
                    tolerance=conv.tolerance or sc.checks["final_error"], torque_free=ctx_run.torque is None)
     ctx.say(f"\n{conv.name} against {sc.name} (reference: {scenario_reference(sc).used}): {s.outcome}")
+    if declared_by:
+        ctx.say(f"  declared by: {declared_by}")
     ctx.say(f"  read as: {s.convention}")
     for line in file_lines([s]):
         ctx.say(line)
     if json:
-        write_json_atomic(json, {"schema": "xcheck.score/1", "scenario": sc.name, **s.to_json()})
+        write_json_atomic(json, {"schema": "xcheck.score/1", "scenario": sc.name, **s.to_json(),
+                                 **({"declared_by": declared_by} if declared_by else {})})
     return ScoreOutcome(s.outcome, s)
+
+
+def _by_header(path, sc):
+    """The scenario's ``[[trajectory]]`` declaration that reads the file ``path`` by its header (issue 63: a file
+    from the same simulators, under another name, has the very columns the scenario declares), as ``(convention,
+    what to say)``; ``(None, None)`` where none does. Declarations that match but read the file differently are
+    refused by name: which one applies is the user's to say, with ``--declaration``."""
+    from dataclasses import replace
+
+    from ..scenario import ScenarioError
+    from ..scoring.convention import declared_layout, layout_of
+    from ..scoring.reader import read_header
+
+    if not path.is_file():
+        return None, None  # the reader refuses it, naming the file
+    matches = declared_layout(read_header(path), sc.trajectories)
+    if not matches:
+        return None, None
+    if len({layout_of(c) for c in matches}) > 1:
+        names = ", ".join(repr(c.name) for c in matches)
+        raise ScenarioError(f"{path}: its header has the columns of {len(matches)} of {sc.name}'s [[trajectory]] "
+                            f"tables ({names}), which read them differently; say which with --declaration FILE.toml")
+    first = matches[0]
+    others = f", as {len(matches) - 1} more of its tables do" if len(matches) > 1 else ""
+    said = (f"{sc.name}'s [[trajectory]] {first.name!r}, tolerance included: the file's header has the columns it "
+            f"declares{others}")
+    return replace(first, file=path.resolve(), name=path.stem, source=""), said

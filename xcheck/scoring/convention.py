@@ -40,7 +40,7 @@ from ..trajectory import continuous_quaternions
 from .earth import WGS84_RATE, Earth, ned_frames
 
 __all__ = ["Convention", "read_convention", "read_earth", "MAX_FILE_BYTES", "to_world", "KEYS", "TIME_COLUMNS", "XCHECK_RATES", "columns_of",
-           "Converted"]
+           "Converted", "declared_layout", "layout_of", "LAYOUT_KEYS"]
 
 #: The keys of a declaration, with what each may be (None: free text or numbers, checked by the reader).
 KEYS = {"file": None, "name": None, "time": None, "time_unit": ("s", "ms"), "attitude": ("quaternion", "dcm", "euler"),
@@ -200,6 +200,31 @@ def columns_of(conv: Convention, header: list[str], where: str) -> tuple[str, tu
         raise ValueError(f"{where}: the rates' column(s) {[c for c in rates if c not in have]} (rates) are not in the "
                          f"header, which has: {shown}")
     return time, tuple(conv.attitude_columns), rates
+
+
+#: What a declaration says about reading a file, beside which file it is and how it is judged: two declarations that
+#: agree on these read a file alike.
+LAYOUT_KEYS = ("time", "time_unit", "attitude", "columns", "scalar", "direction", "frame", "sequence", "angle_unit",
+               "rates", "rates_frame", "rates_unit", "rates_relative_to", "normalise")
+
+
+def declared_layout(header: list[str], declarations) -> list:
+    """The ``declarations`` (a scenario's ``[[trajectory]]`` tables) that read a file with ``header``: each that
+    names its attitude's columns, all of which the header has, with its time and rates (where it has them). A declaration
+    that leaves its columns to the defaults (xcheck's own CSV) matches none: the defaults are read without it."""
+    def reads(c) -> bool:
+        try:
+            columns_of(c, header, "")
+        except ValueError:
+            return False
+        return True
+
+    return [c for c in declarations if c.columns is not None and reads(c)]
+
+
+def layout_of(conv: Convention) -> tuple:
+    """``conv``'s reading of a file (:data:`LAYOUT_KEYS`), to tell declarations that read alike."""
+    return tuple(getattr(conv, k) for k in LAYOUT_KEYS)
 
 
 @dataclass

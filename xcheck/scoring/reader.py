@@ -26,7 +26,7 @@ from ..base.errors import UserError
 from ..paths import input_problem
 from .convention import MAX_FILE_BYTES, Convention, columns_of
 
-__all__ = ["TrajectoryFileError", "Samples", "read_samples", "check_rows", "BLOCK", "BYTES_PER_ROW"]
+__all__ = ["TrajectoryFileError", "Samples", "read_samples", "read_header", "check_rows", "BLOCK", "BYTES_PER_ROW"]
 
 #: Lines parsed at a time, and their characters at most.
 BLOCK = 65536
@@ -126,18 +126,35 @@ def _blocks(lines):
         yield block
 
 
-def _read(f, path, conv: Convention, duration):
-    line_no = 0
-    header = None
-    lines = _lines(f, path)
-    for raw in lines:
-        line_no += 1
+def _header(lines, path) -> tuple[list[str], int]:
+    """The file's header (its first line that is neither blank nor a ``#`` comment) as column names, and its line
+    number; refused where there is none."""
+    for line_no, raw in enumerate(lines, 1):
         text = raw.strip()
         if text and not text.startswith("#"):
-            header = [h.strip() for h in text.split(",")]
-            break
-    if header is None:
-        _fail(path, "no header: expected a line of column names (e.g. t_s,qw,qx,qy,qz,wx_rad_s,wy_rad_s,wz_rad_s)")
+            return [h.strip() for h in text.split(",")], line_no
+    _fail(path, "no header: expected a line of column names (e.g. t_s,qw,qx,qy,qz,wx_rad_s,wy_rad_s,wz_rad_s)")
+
+
+def read_header(path) -> list[str]:
+    """The column names of the trajectory file ``path`` (its header), read with the bounds of :func:`read_samples`;
+    a :class:`TrajectoryFileError` naming the file where it cannot be read or has none."""
+    path = Path(path)
+    problem = input_problem(path, "trajectory file", limit=MAX_FILE_BYTES)
+    if problem:
+        raise TrajectoryFileError(problem)
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as f:
+            return _header(_lines(f, path), path)[0]
+    except UnicodeDecodeError as exc:
+        _fail(path, f"not UTF-8 text (byte {exc.start} of a block): a trajectory file is a CSV")
+    except OSError as exc:
+        _fail(path, f"cannot be read ({exc.strerror or exc})")
+
+
+def _read(f, path, conv: Convention, duration):
+    lines = _lines(f, path)
+    header, line_no = _header(lines, path)
     try:
         time_col, att_cols, rate_cols = columns_of(conv, header, str(path))
     except ValueError as exc:
