@@ -96,6 +96,9 @@ class Run:
     #: a top's or an axisymmetric body's cone over the run (:func:`xcheck.motion.precession_of`: ``precession``
     #: [rad/s], ``nutation_period`` [s], ``nutations``), None for any other body; in the same JSON as ``flips``
     precession: dict | None = None
+    #: the LGVI's steps taken as substeps, its equation having no solution at the run's step (issue 63; the run's
+    #: message says how many substeps); None where none was: such a run is left out of the method's order
+    substeps: int | None = None
 
     @property
     def ok(self) -> bool:
@@ -112,7 +115,8 @@ class Run:
 
     def to_json(self) -> dict:
         out = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in _NOT_IN_JSON
-               and not (f.name in ("rtol", "spin_change", "wheel_speed_error") and getattr(self, f.name) is None)}
+               and not (f.name in ("rtol", "spin_change", "wheel_speed_error", "substeps")
+                        and getattr(self, f.name) is None)}
         if not self.ok or self.message:  # a failure's reason, or a good run's note (an engine's rounded clock)
             out["message"] = self.message
         return out

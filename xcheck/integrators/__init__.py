@@ -159,21 +159,27 @@ def integrate(method: str, inertia, q0, omega0, *, dt: float, duration: float, t
     out = np.empty((n + 1, m))
     args = _kernel_args(info, sequence, dt=dt, n=n, last_h=last_h, torque=(tk, P, T), save_every=1)
     step = kern.step_of(info.kernel, info.tableau, info.dexp_A)  # made in the variant that runs it
-    steps, status = kern.run_one(info.kernel, step, args, y0, I, np.linalg.inv(I), out)
+    steps, status, work = kern.run_one(info.kernel, step, args, y0, I, np.linalg.inv(I), out)
     if status == kern.INTERRUPTED:
         raise_stopped()
     y = out[: steps + 1, :m]
     q, omega, extras = info.decode(y, sequence)
     extras["evaluations"] = info.stages * steps  # of the steps completed
+    if info.kernel == kern.LGVI and work[kern.LGVI_WORK.split][0] > 0:
+        split, most = (int(v) for v in work[kern.LGVI_WORK.split])
+        extras["substeps"] = split
+        extras["substeps_note"] = (
+            f"{info.name}: {split} of its {steps} steps at dt = {float(dt):g} s taken as up to {most} substeps (its "
+            "implicit equation has no solution where the step times the rate is more than 1 rad)")
     traj = Trajectory(t=t[: steps + 1], q=q, omega=omega, method=info.name, dt=float(dt), extras=extras)
     if status == kern.SINGULAR:
         traj.status = "singular"
         traj.message = _singular_message(info, sequence, y[-1], steps * float(dt))
     elif status == kern.NOT_CONVERGED:
         traj.status = "failed"
-        traj.message = (f"{info.name}: the implicit step from t = {steps * float(dt):.6g} s did not converge (Newton "
-                        "on the step's rotation: a step that turns the body by about pi or more); the trajectory "
-                        "ends at the last good step")
+        traj.message = (f"{info.name}: the implicit step from t = {steps * float(dt):.6g} s has no solution, even as "
+                        f"{kernels.LGVI_MOST_SUBSTEPS} substeps (Newton on the step's rotation did not converge); the "
+                        "trajectory ends at the last good step")
     elif status == kern.NONFINITE:
         traj.status = "failed"
         traj.message = (f"{info.name}: blew up: the state became non-finite in the step from t = "

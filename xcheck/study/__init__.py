@@ -9,7 +9,7 @@ checks and verdicts."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -27,6 +27,7 @@ from ..results import Check, MethodResult
 from ..engines.mechanism import joint_kinds
 from ..runners import RUNNERS
 from ..scenario import Scenario, check_steps
+from ..trajectory import step_label
 from ..versions import versions
 from .advice import advice
 from .checks import adaptive_note, planned_checks, qualify, study_checks, study_floor, verdict
@@ -410,6 +411,20 @@ def guard_references(scenarios) -> None:
                 pass
 
 
+def _fitted(runs) -> list:
+    """The runs' attitude errors an order is fitted on: None for a run whose steps were taken as substeps (the LGVI
+    where its equation has no solution at the step): that run is not the method at its step."""
+    return [None if r.substeps else r.attitude_error for r in runs]
+
+
+def _substepped(dts) -> str:
+    """The order note's words for the runs left out of it because their steps were taken as substeps."""
+    at = ", ".join(step_label(dt) for dt in dts)
+    runs = "the run" if len(dts) == 1 else "the runs"
+    return (f"{runs} at {at} s took substeps (its implicit equation has no solution at a step that large): left "
+            "out of its order")
+
+
 def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned=None) -> StudyResult:
     """Orders, checks and verdicts from the workers' results. ``quick``: the final-error and invariant
     checks, which are about the finest steps of the full study, are not applied. ``planned``: each method's
@@ -431,9 +446,12 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
         x = [r.setting for r in runs]
         ladder = set(x if runner.adaptive else ladder_steps(x, scenario.your_step))
         on_ladder = [r for r in runs if r.setting in ladder]
-        fit = observed_order([r.setting for r in on_ladder], [r.attitude_error for r in on_ladder], floor=floor)
+        fit = observed_order([r.setting for r in on_ladder], _fitted(on_ladder), floor=floor)
         if fit.order is None and len(on_ladder) < len(runs):  # none on the ladder alone: the user's steps too
-            fit = observed_order(x, [r.attitude_error for r in runs], floor=floor)
+            fit = observed_order(x, _fitted(runs), floor=floor)
+        split = [r.dt for r in runs if r.substeps]
+        if split:
+            fit = replace(fit, note=f"{fit.note}; {_substepped(split)}" if fit.note else _substepped(split))
         within = {tolerance_key(tol): largest_step_within(
             x, [r.max_attitude_error if r.ok else None for r in runs], [r.wall_time for r in runs], tol)
             for tol in TOLERANCES}

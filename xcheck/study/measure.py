@@ -206,8 +206,8 @@ def measure_run(method: str, traj, ref, ctx: RunContext, dt: float, wall: float,
               momentum_turn=kept["momentum_turn"], spin_change=kept.get("spin_change"), norm_drift=kept["norm_drift"],
               wheel_speed_error=_wheel_speed_error(traj, ctx.torque, q_ref, w_ref, mask),
               wall_time=wall, steps_per_second=_steps_per_second(dt, ctx.duration, wall),
-              message="; ".join(x for x in (traj.extras.get("clock"), said) if x), repeats=repeats,
-              evaluations=traj.extras.get("evaluations"),
+              message="; ".join(x for x in (traj.extras.get("clock"), traj.extras.get("substeps_note"), said) if x),
+              repeats=repeats, evaluations=traj.extras.get("evaluations"), substeps=traj.extras.get("substeps"),
               rtol=rtol)
     if not all(v is None or math.isfinite(v) for v in run.to_json().values() if isinstance(v, float)):
         return Run.failed(dt, "failed", f"{method}: non-finite errors at dt = {dt:g} s", wall, rtol)

@@ -78,11 +78,12 @@ from .lanes import LANES  # noqa: E402
 from .loops import entry_points, run_many, run_one, scratch, step_of  # noqa: E402
 from .registry import (INTERRUPTED, NONFINITE, NOT_CONVERGED, OK, OVER_BUDGET, SCHEMES, SINGULAR, Scheme,  # noqa: E402
                        declare, layout, size_of)
-from .schemes import (CF4, DCM, EULER, F1, F2, FIRST, GIBBS, LGVI, LIE, MRP, ROTVEC, SPLIT2, SPLIT4,  # noqa: E402
-                      STATE_SIZE, WORK_SIZE)
-from .steps import RK4_STEP, rk_step_for, rk_step_source  # noqa: E402
+from .schemes import (CF4, DCM, EULER, F1, F2, FIRST, GIBBS, LGVI, LGVI_WORK, LIE, MRP, ROTVEC, SPLIT2,  # noqa: E402
+                      SPLIT4, STATE_SIZE, WORK_SIZE)
+from .steps import LGVI_MOST_SUBSTEPS, RK4_STEP, rk_step_for, rk_step_source  # noqa: E402
 
 __all__ = ["VARIANT", "MAX_PIECES", "MAX_TURN", "LANES", "entry_points", "run_many", "run_one", "scratch", "step_of",
-           "NONFINITE", "NOT_CONVERGED", "INTERRUPTED", "OVER_BUDGET", "LGVI", "SPLIT2", "SPLIT4", "OK",
-           "SCHEMES", "SINGULAR", "Scheme", "declare", "layout", "size_of", "CF4", "DCM", "EULER", "F1", "F2", "FIRST",
-           "GIBBS", "LIE", "MRP", "ROTVEC", "STATE_SIZE", "WORK_SIZE", "RK4_STEP", "rk_step_for", "rk_step_source"]
+           "NONFINITE", "NOT_CONVERGED", "INTERRUPTED", "OVER_BUDGET", "LGVI", "LGVI_WORK", "LGVI_MOST_SUBSTEPS",
+           "SPLIT2", "SPLIT4", "OK", "SCHEMES", "SINGULAR", "Scheme", "declare", "layout", "size_of", "CF4", "DCM",
+           "EULER", "F1", "F2", "FIRST", "GIBBS", "LIE", "MRP", "ROTVEC", "STATE_SIZE", "WORK_SIZE", "RK4_STEP",
+           "rk_step_for", "rk_step_source"]

@@ -161,8 +161,11 @@ def scratch(scheme, a, *batch):
 
 
 def run_one(scheme, step, a, y0, I, Iinv, out):
-    """One trajectory of ``scheme`` stepped by ``step`` (:func:`run`, :func:`step_of`): (steps done, status)."""
-    return entry_points(scheme, step)[0](a, y0, I, Iinv, out, *scratch(scheme, a))
+    """One trajectory of ``scheme`` stepped by ``step`` (:func:`run`, :func:`step_of`): (steps done, status, the
+    scheme's ``work`` after the run: what its step counted, the LGVI's substeps)."""
+    scr = scratch(scheme, a)
+    steps, status = entry_points(scheme, step)[0](a, y0, I, Iinv, out, *scr)
+    return steps, status, scr[3]
 
 
 def run_many(scheme, step, a, Y0, I, Iinv, out, steps_done, status):

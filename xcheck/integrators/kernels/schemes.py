@@ -450,9 +450,11 @@ LGVI_STATE = layout(p=4, w=3)
 #: the step's scratch (:func:`xcheck.integrators.kernels.steps.lgvi_step`): the torques at the start, the end and
 #: the end's next iterate, the body momentum, the implicit equation's left side, its Cayley vector, residual,
 #: Jacobian (row-major) and Newton update, the step's rotation and the end's attitude, F^T (Pi + h/2 M), the end's
-#: rate and a vector of scratch. Its first part is also Formulation II's derivative's (the scheme's, never called in a
-#: step).
-LGVI_WORK = layout(M0=3, M1=3, M2=3, Pi=3, g=3, f=3, G=3, jac=9, df=3, qf=4, qn=4, base=3, wn=3, tmp=3)
+#: rate and a vector of scratch; the step's start, kept where it is taken as substeps, and the count of the steps so
+#: taken and the most substeps one took (read after the run). Its first part is also Formulation II's derivative's
+#: (the scheme's, never called in a step).
+LGVI_WORK = layout(M0=3, M1=3, M2=3, Pi=3, g=3, f=3, G=3, jac=9, df=3, qf=4, qn=4, base=3, wn=3, tmp=3, start=7,
+                   split=2)
 
 LGVI = declare(Scheme("lgvi", state=LGVI_STATE, deriv=deriv_formulation2, step="lgvi", encode=_enc_f2,
                       decode=_dec_f2, work=LGVI_WORK))
