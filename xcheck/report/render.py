@@ -297,9 +297,14 @@ def scenario_summary(st) -> str:
         out.append("Every measured order matches its theory" +
                    (" (the expected failures aside)." if any(m.verdict == "expected" for m in st.methods.values())
                     else "."))
-    known = [c.name for c in st.checks if c.known]
+    from ..study.checks import OURS_EARLY
+
+    known = [c.name for c in st.checks if c.known and c.known != OURS_EARLY]
     if known:
         out.append(f"Explained by known findings of their engines: {', '.join(known)}.")
+    early = [c.method for c in st.checks if c.known == OURS_EARLY]
+    if early:
+        out.append(f"Left out of the verdict, pre-asymptotic at these steps (xcheck's own): {', '.join(early)}.")
     undecided = [c for c in st.checks if c.inconclusive]
     if undecided:  # what the study could not decide, and what would (issue 36)
         out.append("Could not decide: " + "; ".join(f"{c.name} ({c.note.rsplit('; ', 1)[-1]})" for c in undecided[:3])
@@ -369,7 +374,8 @@ def _statement_cells(m, usual: str | None) -> list:
     """A method's two statements and its invariants at the step its accuracy is judged at (the step said where it
     is not ``usual``, the step of most rows), as table cells."""
     a = m.accurate
-    consistent = {"yes": "pass", "no": "fail", "known finding": "expected", "expected to fail": "expected"}
+    consistent = {"yes": "pass", "no": "fail", "known finding": "expected", "pre-asymptotic": "expected",
+                  "expected to fail": "expected"}
     accurate = accurate_text(a, show_step=a is not None and where_text(a) != usual)
     return [Cell(m.consistent, consistent.get(m.consistent, "")),
             Cell(accurate, "" if a is None else "pass" if a["within"] else "fail"),

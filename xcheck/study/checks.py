@@ -83,9 +83,8 @@ def _order(m: MethodResult, cfg, ctx) -> Check | None:
             return Check("order", True, m.name, None, expected, f"no asymptotic range ({m.order_note}); every step "
                                                                  f"within {worst:.2g} rad")
         if early:  # the steps were too coarse for this method here: the study cannot say, and says what would
-            return Check("order", False, m.name, None, expected,
-                         f"no asymptotic range at these steps: {early}; {steps_that_would_show(m, expected)}",
-                         inconclusive=True)
+            return _too_early(m, None, expected, f"no asymptotic range at these steps: {early}; "
+                                                 f"{steps_that_would_show(m, expected)}")
         return Check("order", False, m.name, None, expected,
                      f"no asymptotic range ({m.order_note}); every step within {worst:.2g} rad")
     passed = expected - cfg["order_tolerance"] <= order <= expected + cfg["order_excess"]
@@ -106,9 +105,8 @@ def _order(m: MethodResult, cfg, ctx) -> Check | None:
                      f"round-off ({local}): its error falls faster than the order, which no defect does (a "
                      "defect lowers an order)")
     if not passed and order < expected and early:
-        return Check("order", False, m.name, order, expected, f"{note}; pre-asymptotic at these steps: {early}; "
-                                                              f"{steps_that_would_show(m, expected)}",
-                     inconclusive=True)
+        return _too_early(m, order, expected, f"{note}; pre-asymptotic at these steps: {early}; "
+                                              f"{steps_that_would_show(m, expected)}")
     runner = RUNNERS.get(m.name)
     finding = runner.finding() if not passed and runner is not None and runner.finding else None
     if finding:  # a known finding of the engine's release: named, with the release to take
@@ -122,6 +120,21 @@ def _errors(m: MethodResult) -> list[tuple[float, float]]:
     """``(step, error)`` of a method's completed runs, coarse to fine."""
     return sorted(((r.setting, r.attitude_error) for r in m.runs if r.ok and r.attitude_error is not None),
                   reverse=True)
+
+
+#: The ``known`` of an order check of one of xcheck's own methods that is pre-asymptotic at the study's steps.
+OURS_EARLY = ("one of xcheck's own methods, pre-asymptotic at these steps: left out of the verdict (a method of ours "
+              "is the study's yardstick, not its subject; the engines' and the reference decide)")
+
+
+def _too_early(m: MethodResult, order, expected: int, note: str) -> Check:
+    """The order check of a method pre-asymptotic at the study's steps: an engine's is undecided (finer steps would
+    decide it, said in ``note``); one of ours is left out of the verdict (issue 63: lie-lgvi on a near-sleeping top,
+    0.17 rad off at 1/4096 s, its second-order phase error, made the study INCONCLUSIVE), said in ``known``."""
+    runner = RUNNERS.get(m.name)
+    if runner is not None and runner.engine == "xcheck":
+        return Check("order", False, m.name, order, expected, note, known=OURS_EARLY)
+    return Check("order", False, m.name, order, expected, note, inconclusive=True)
 
 
 def _pre_asymptotic(m: MethodResult, expected: int) -> str:
@@ -221,6 +234,14 @@ def _agreement(m: MethodResult, cfg, ctx) -> Check | None:
                      f"{m.name} and {twin}, the same scheme, differ by {direct:.3g} rad trajectory to trajectory at "
                      f"dt = {m.finest.dt:g} s, where both are {m.finest.attitude_error:.3g} rad from the "
                      f"{ctx['reference']} reference (the step's error, not the engine's)")
+    if m.finest.attitude_error <= cfg["agreement"] < best.finest.attitude_error:
+        # ours is the worse of the two (a quick study's finest step, a fast spin): it does not judge the engine, which
+        # the reference itself finds within the limit (issue 63: formulation-2 4.6e-7 rad beside MuJoCo's RK4
+        # 1.7e-9 on a near-sleeping top failed MuJoCo's check)
+        return Check("agreement", True, m.name, m.finest.attitude_error, cfg["agreement"],
+                     f"{m.name} {m.finest.attitude_error:.3g} rad against the {ctx['reference']} reference at its "
+                     f"finest step, within the limit; {best.name}, ours, {best.finest.attitude_error:.3g} rad at its "
+                     "own (the error of its steps, which does not judge the engine)")
     return Check("agreement", worst <= cfg["agreement"], m.name, worst, cfg["agreement"],
                  f"{m.name} {m.finest.attitude_error:.3g} rad and {best.name} {best.finest.attitude_error:.3g} rad "
                  f"against the {ctx['reference']} reference at their finest steps")
@@ -345,7 +366,9 @@ def qualify(scenario: Scenario, methods: dict, checks: list, *, reference: str, 
     * **the reference unchecked** (its independent check is beyond its budget): a failing check against it is
       undecided;
     * **the reference less certain than a check**: where the guard measured the motion's conditioning
-      (``reference_check["uncertainty"]``), a failing error check whose error is within ten times it is undecided;
+      (``reference_check["uncertainty"]``), a failing error check whose error is within it passes (as close as
+      double precision can tell), one within ten times it is undecided, and an order check that measured no order
+      because every error is within ten times it passes (issue 63: nothing above the noise to fit);
     * **the reference suspect**: every fourth-order method (two at least) fails against it with the same error (to
       10 %) and, where an engine's RK4 was compared trajectory to trajectory with ours, they differ by a tenth of it
       at most: the methods agree with one another, not with the reference;
@@ -366,13 +389,31 @@ def qualify(scenario: Scenario, methods: dict, checks: list, *, reference: str, 
     uncertainty = (reference_check or {}).get("uncertainty") or 0.0
     if uncertainty > cfg["final_error"]:
         for c in checks:
-            if c.failed and c.kind in ("final-error", "agreement") and c.value is not None and c.value <= 10 * uncertainty:
+            if not (c.failed and c.kind in ("final-error", "agreement") and c.value is not None):
+                continue
+            if c.value <= uncertainty:  # as close as double precision can tell for this motion (issue 63)
+                c.passed = True
+                c.note += (f"; within what the reference can resolve for this motion ({uncertainty:.2g} rad: it "
+                           "amplifies the last bit of its inputs), above the limit: as close as double precision "
+                           "tells here")
+            elif c.value <= 10 * uncertainty:
                 c.inconclusive = True
                 c.note += (f"; the reference is certain only to {uncertainty:.2g} rad for this motion (it amplifies the "
                            "last bit of its inputs): this error cannot be told from the reference's")
         if any(c.inconclusive for c in checks):
             reasons.append(f"the reference is certain only to {uncertainty:.2g} rad for this motion, above the "
                            f"checks' limit {cfg['final_error']:g} rad: {reference_check.get('text', '')}")
+    if uncertainty > 0:
+        for c in checks:  # no order where every error is the reference's noise: nothing to fit, nothing wrong
+            m = methods.get(c.method)
+            if not (c.kind == "order" and c.value is None and c.failed and m is not None):
+                continue
+            worst = max((r.attitude_error for r in m.runs if r.attitude_error is not None), default=None)
+            if worst is not None and worst <= 10 * uncertainty:
+                c.passed = True
+                c.note += (f"; every error within ten times what the reference can resolve for this motion "
+                           f"({uncertainty:.2g} rad: it amplifies the last bit of its inputs), so none above that "
+                           "noise to fit an order on")
     expected_to_fail = cfg["expected_to_fail"]
     fourth = [m for m in methods.values() if m.expected_order == 4 and m.finest is not None and not m.adaptive
               and m.name not in expected_to_fail]

@@ -21,9 +21,9 @@ __all__ = ["flip_rows", "precession_rows", "motion_of", "consistency", "accuracy
 #: The checks that say whether a method behaves as its theory says (the rest judge accuracy: final-error, agreement).
 THEORY = ("runs", "order", "invariants", "expected-failure")
 #: What ``consistent`` can say: its checks of :data:`THEORY` passed, one failed, one could not decide, a known finding
-#: of its engine explains the failure, the scenario expects it to fail, or there is nothing to check (an adaptive
-#: method has no order).
-CONSISTENT = ("yes", "no", "undecided", "known finding", "expected to fail", "—")
+#: of its engine explains the failure, one of xcheck's own methods is pre-asymptotic at the study's steps (left out of
+#: the verdict), the scenario expects it to fail, or there is nothing to check (an adaptive method has no order).
+CONSISTENT = ("yes", "no", "undecided", "known finding", "pre-asymptotic", "expected to fail", "—")
 
 
 def motion_of(run) -> dict:
@@ -41,7 +41,9 @@ def consistency(method: str, checks) -> str:
     if any(c.failed and not c.known for c in related):
         return "no"
     if any(c.known for c in related):
-        return "known finding"
+        from .checks import OURS_EARLY
+
+        return "pre-asymptotic" if all(c.known == OURS_EARLY for c in related if c.known) else "known finding"
     if any(c.inconclusive for c in related):
         return "undecided"
     return "yes" if related else "—"
