@@ -104,6 +104,14 @@ def _order(m: MethodResult, cfg, ctx) -> Check | None:
                      f"{note}; never slower than its order at its {len(m.local_orders)} pairs of steps above "
                      f"round-off ({local}): its error falls faster than the order, which no defect does (a "
                      "defect lowers an order)")
+    if not passed and order < expected and ctx.get("duration"):
+        above = _above_step_roundoff(m, ctx["duration"])
+        if above and min(above) >= expected - cfg["order_tolerance"]:
+            local = ", ".join(f"{p:.2f}" for p in above)
+            return Check("order", True, m.name, order, expected,
+                         f"{note}; its finer errors are within the round-off of their steps ({ROUNDOFF_PER_STEP:g} "
+                         f"rad a step over {ctx['duration']:g} s), and its local orders above that ({local}) are its "
+                         "order")
     if not passed and order < expected and early:
         return _too_early(m, order, expected, f"{note}; pre-asymptotic at these steps: {early}; "
                                               f"{steps_that_would_show(m, expected)}")
@@ -135,6 +143,20 @@ def _too_early(m: MethodResult, order, expected: int, note: str) -> Check:
     if runner is not None and runner.engine == "xcheck":
         return Check("order", False, m.name, order, expected, note, known=OURS_EARLY)
     return Check("order", False, m.name, order, expected, note, inconclusive=True)
+
+
+#: A run's attitude error within this times its number of steps [rad] is its round-off (issue 63): the rounding of
+#: each step adds up over a long run (measured, a near-isotropic body over 512 s: about 2.2e-16 rad a step for
+#: four methods of ours, 4e-12 rad at 1/32 s); ten times eps for the spread of a final-time error.
+ROUNDOFF_PER_STEP = 2.2e-15
+
+
+def _above_step_roundoff(m: MethodResult, duration: float) -> list[float]:
+    """``m``'s local orders between consecutive completed runs whose finer error is above the round-off of its steps
+    (:data:`ROUNDOFF_PER_STEP` times ``duration / dt``), coarse to fine."""
+    runs = [(dt, e) for dt, e in _errors(m) if e > 0]
+    return [math.log(e1 / e2) / math.log(d1 / d2) for (d1, e1), (d2, e2) in zip(runs, runs[1:])
+            if d1 != d2 and e2 > ROUNDOFF_PER_STEP * duration / d2]
 
 
 def _pre_asymptotic(m: MethodResult, expected: int) -> str:
@@ -314,7 +336,7 @@ def study_checks(scenario: Scenario, methods: dict, cfg, quick: bool = False, co
     ours = [m for m in methods.values() if m.engine == "xcheck" and m.expected_order == 4
             and m.name not in expected_to_fail and m.finest is not None]
     ctx = {"best": min(ours, key=lambda m: m.finest.attitude_error) if ours else None,
-           "reference": scenario.reference, "comparisons": comparisons}
+           "reference": scenario.reference, "comparisons": comparisons, "duration": scenario.duration}
 
     def made(m, across: bool):
         return [c for rule in RULES if rule.across == across and rule.applies(plans[m.name])
