@@ -164,7 +164,10 @@ def _pre_asymptotic(m: MethodResult, expected: int) -> str:
     finest error is beyond the small-error regime (above half of :data:`~xcheck.metrics.ORDER_CEILING`), or its
     local orders move toward ``expected`` step after step (a method whose order is wrong keeps a wrong local order,
     or wanders): the fitted order, a median of the finest, then lags behind them."""
-    runs = [(dt, e) for dt, e in _errors(m) if e > 0]
+    runs = []
+    for dt, e in _errors(m):  # a step within 1.5x of the last kept (the user's 0.002 s beside 1/512 s) is skipped:
+        if e > 0 and (not runs or runs[-1][0] >= 1.5 * dt):  # their local order is noise (issue 63)
+            runs.append((dt, e))
     if not runs:
         return ""
     dt_f, e_f = runs[-1]
