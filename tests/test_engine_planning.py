@@ -318,6 +318,29 @@ def test_a_pure_spin_about_a_principal_axis_decides(tmp_path, rate):
     assert gibbs.known == OURS_EARLY and "pre-asymptotic at these steps" in gibbs.note, gibbs.note
 
 
+def test_an_engines_error_falling_faster_than_its_order_after_blowing_up_is_explained():
+    """Issue 63: MuJoCo's Euler on a near-sleeping top (120 rad/s) blew up at 1/256, 0.002 and 1/512 s, was 3.03 and
+    1.84 rad off at 1/1024 and 1/2048 s and 0.0106 at 1/4096 s: no order, and the check FAILED "no asymptotic range".
+    Its error falls faster than its order (7.44) where the coarser runs blew up: it is settling, the study says so
+    and which steps would show its order (undecided). Without a failed run and with two pairs that do not climb, a
+    method that misses its order still fails."""
+    from xcheck.defaults import DEFAULT_CHECKS
+    from xcheck.study.checks import _order
+
+    bad = [Run.failed(dt, "failed", "blew up", 0) for dt in (1 / 256, 0.002, 1 / 512)]
+    good = [Run(dt=2.0 ** -k, attitude_error=e, wall_time=0) for k, e in ((10, 3.03), (11, 1.84), (12, 0.0106))]
+    m = MethodResult(name="mujoco-euler", engine="mujoco", expected_order=1, runs=bad + good, observed_order=None,
+                     order_note="fewer than two steps with decreasing errors")
+    c = _order(m, DEFAULT_CHECKS, {})
+    assert c.inconclusive and ("its error falls faster than its order between its finest steps (local order 7.44 "
+                               "from 1/2048 to 1/4096 s; 3 coarser runs blew up); steps 1/16384") in c.note
+    steady = [Run(dt=2.0 ** -k, attitude_error=e, wall_time=0)
+              for k, e in ((9, 0.05), (10, 0.04), (11, 0.035), (12, 0.03))]
+    m = MethodResult(name="mujoco-euler", engine="mujoco", expected_order=1, runs=steady, observed_order=None,
+                     order_note="fewer than two steps")
+    assert _order(m, DEFAULT_CHECKS, {}).failed
+
+
 def test_a_converge_starts_a_worker_only_for_the_costly_engines_it_runs_and_imports_only_those():
     """Truth: the engines' own declarations (``to_workers``, ``warm``): a worker starts beside this process only where
     the study has costly engines' methods and work of its own meanwhile, and it imports only the engines named."""
