@@ -128,19 +128,22 @@ def test_a_known_finding_makes_the_check_known_not_failed():
 
 def test_an_order_the_budget_kept_from_deciding_is_not_claimed():
     """An order check undecided at the steps run, where the budget left out finer ones, is dropped (the study chose
-    not to run the steps that would decide) and said in the left-out line with its reason; a failed one, and an
-    undecided one of a method the budget did not touch, stay."""
+    not to run the steps that would decide) and said in the left-out line with its reason; so is a failed one that
+    measured no order (issue 63: it was kept, failing Drake's RK3 on a fast rod); one that measured a wrong order, and
+    an undecided one of a method the budget did not touch, stay."""
     from xcheck.study import _budget_undecided
 
     note = ("no asymptotic range at these steps: the error is still 0.098 rad at the finest step 1/512 s; "
             "steps 1/8192 … 1/131072 s would show one")
-    checks = [Check("order", False, "e", note=note, inconclusive=True), Check("order", False, "f", note="x"),
-              Check("order", False, "g", note=note, inconclusive=True)]
-    over = {"e": ((1 / 1024,), "the step budget"), "f": ((1 / 1024,), "the step budget")}
+    checks = [Check("order", False, "e", note=note, inconclusive=True), Check("order", False, "f", 2.36, 3, note="x"),
+              Check("order", False, "g", note=note, inconclusive=True), Check("order", False, "h", note="no order")]
+    over = {"e": ((1 / 1024,), "the step budget"), "f": ((1 / 1024,), "the step budget"),
+            "h": ((1 / 1024,), "the step budget")}
     kept = _budget_undecided(checks, over)
     assert [c.method for c in kept] == ["f", "g"]
     assert over["e"][1] == f"the step budget; its order is not measured at the steps run ({note})"
     assert over["f"][1] == "the step budget"
+    assert over["h"][1] == "the step budget; its order is not measured at the steps run (no order)"
 
 
 def test_an_engine_that_fails_to_import_is_left_out_and_named(tmp_path, monkeypatch):
