@@ -302,10 +302,18 @@ def lgvi_step(scheme, t, y, h, K, Y, Yhat, I, Iinv, A, b, c, tk, tP, tT, axes, s
     damped Newton and a continuation in ``h`` stop there too). Substeps keep what the method keeps (a composition of
     symplectic, momentum-keeping maps is both). ``work[W.split]``: the steps split so far and the most substeps one
     took, for the run's note; NOT_CONVERGED where even the most substeps fail."""
-    W = LGVI_WORK
     status = lgvi_once(t, y, h, I, Iinv, tk, tP, tT, work)
     if status != NOT_CONVERGED:
         return status
+    return lgvi_substeps(t, y, h, I, Iinv, tk, tP, tT, work)
+
+
+@jit
+def lgvi_substeps(t, y, h, I, Iinv, tk, tP, tT, work):
+    """:func:`lgvi_step`'s substeps, compiled apart (not inlined: the common step keeps one copy of the LGVI's
+    arithmetic: a day of RAX-1 at 0.1 s takes 0.92 to 0.94 of formulation-2's time, as before the substeps, and
+    0.98 with them inlined)."""
+    W = LGVI_WORK
     start = work[W.start]
     for i in range(7):
         start[i] = y[i]
