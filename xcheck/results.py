@@ -20,8 +20,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields
 
-__all__ = ["Run", "MethodRuns", "Check", "MethodResult", "json_number", "VERDICTS", "OUTCOMES", "outcome_of",
-           "outcome_value"]
+__all__ = ["Run", "MethodRuns", "Check", "OURS_EARLY", "MethodResult", "json_number", "VERDICTS", "OUTCOMES",
+           "outcome_of", "outcome_value"]
 
 VERDICTS = ("pass", "fail", "expected", "inconclusive", "info")
 OUTCOMES = ("PASSED", "FAILED", "INCONCLUSIVE")
@@ -155,6 +155,12 @@ class MethodRuns:
                    reference_error=str(reason))
 
 
+#: The ``known`` of an order check of one of xcheck's own methods that is pre-asymptotic at the study's steps (issue
+#: 63): left out of the verdict, as an engine's known finding is, but no finding (:attr:`Check.left_out`).
+OURS_EARLY = ("one of xcheck's own methods, pre-asymptotic at these steps: left out of the verdict (a method of ours "
+              "is the study's yardstick, not its subject; the engines' and the reference decide)")
+
+
 @dataclass
 class Check:
     """One check of a study: ``kind`` (order, final-error, invariants, runs, agreement, expected-failure,
@@ -184,6 +190,11 @@ class Check:
     @property
     def failed(self) -> bool:
         return not self.passed and not self.inconclusive and not self.known
+
+    @property
+    def left_out(self) -> bool:
+        """One of xcheck's own methods pre-asymptotic here, left out of the verdict (:data:`OURS_EARLY`)."""
+        return self.known == OURS_EARLY
 
     def to_json(self) -> dict:
         return {"name": self.name, "passed": bool(self.passed), "status": self.status, "value": json_number(self.value),

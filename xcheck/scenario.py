@@ -39,7 +39,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-__all__ = ["Scenario", "ScenarioError", "load_scenario", "scenario_from_model", "model_scenario_text", "is_model_arg", "split_model_arg", "bundled_scenarios",
+__all__ = ["Scenario", "ScenarioError", "load_scenario", "sidecar_of", "scenario_from_model", "model_scenario_text", "is_model_arg", "split_model_arg", "bundled_scenarios",
            "resolve_scenario", "check_name", "check_steps", "foreign_model", "torque_terms", "magnetic_term", "copy_torque", "DEFAULT_STEPS", "QUICK_STEPS", "DEFAULT_TOLERANCES", "QUICK_TOLERANCES", "ADAPTIVE_STEP",
            "ADAPTIVE_TURN", "default_adaptive_step",
            "SCENARIO_DIR"]
@@ -363,6 +363,12 @@ def _read_trajectories(top: _Reader, data: dict, methods) -> tuple:
     return earth, tuple(out)
 
 
+def sidecar_of(file) -> Path:
+    """The sidecar declaration of the trajectory file ``file``: ``FILE.toml`` beside it."""
+    file = Path(file)
+    return file.with_name(file.name + ".toml")
+
+
 def load_declaration(file, *, declaration=None, earth=None):
     """How to read the trajectory ``file`` outside a scenario (``xcheck score``): the ``declaration`` TOML given,
     else the sidecar ``FILE.toml`` beside it, else the defaults (xcheck's own CSV); its keys are a ``[[trajectory]]``
@@ -370,7 +376,7 @@ def load_declaration(file, *, declaration=None, earth=None):
     from .scoring.convention import Convention, read_convention
 
     file = Path(file)
-    sidecar = Path(declaration) if declaration else file.with_name(file.name + ".toml")
+    sidecar = Path(declaration) if declaration else sidecar_of(file)
     if declaration is None and not sidecar.is_file():
         return Convention(file=file.resolve(), name=file.stem)
     problem = input_problem(sidecar, "declaration")

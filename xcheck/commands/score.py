@@ -38,7 +38,7 @@ def score(*, file: str, scenario: str, declaration: str | None, json: str | None
     from pathlib import Path
 
     from ..base.files import check_output_file, write_json_atomic
-    from ..scenario import load_declaration, resolve_scenario
+    from ..scenario import load_declaration, resolve_scenario, sidecar_of
     from ..study.context import run_context, scenario_reference
     from ..scoring.score import score_file
 
@@ -48,7 +48,7 @@ def score(*, file: str, scenario: str, declaration: str | None, json: str | None
     path = Path(file)
     conv = next((c for c in sc.trajectories if path.exists() and c.file == path.resolve()), None)
     declared_by = None
-    if conv is None and not declaration and not path.with_name(path.name + ".toml").is_file():
+    if conv is None and not declaration and not sidecar_of(path).is_file():
         conv, declared_by = _by_header(path, sc)
     if conv is None or declaration:
         conv = load_declaration(path, declaration=declaration, earth=sc.earth)

@@ -297,12 +297,10 @@ def scenario_summary(st) -> str:
         out.append("Every measured order matches its theory" +
                    (" (the expected failures aside)." if any(m.verdict == "expected" for m in st.methods.values())
                     else "."))
-    from ..study.checks import OURS_EARLY
-
-    known = [c.name for c in st.checks if c.known and c.known != OURS_EARLY]
+    known = [c.name for c in st.checks if c.known and not c.left_out]
     if known:
         out.append(f"Explained by known findings of their engines: {', '.join(known)}.")
-    early = [c.method for c in st.checks if c.known == OURS_EARLY]
+    early = [c.method for c in st.checks if c.left_out]
     if early:
         out.append(f"Left out of the verdict, pre-asymptotic at these steps (xcheck's own): {', '.join(early)}.")
     undecided = [c for c in st.checks if c.inconclusive]

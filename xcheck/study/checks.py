@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from ..metrics import ORDER_CEILING, ORDER_FLOOR, ROUNDOFF_BAND, ROUNDOFF_SCALE
-from ..results import Check, MethodResult
+from ..results import OURS_EARLY, Check, MethodResult
 from ..runners import RUNNERS
 from ..scenario import Scenario
 from ..trajectory import step_label
@@ -128,17 +128,11 @@ def _errors(m: MethodResult) -> list[tuple[float, float]]:
                   reverse=True)
 
 
-#: The ``known`` of an order check of one of xcheck's own methods that is pre-asymptotic at the study's steps.
-OURS_EARLY = ("one of xcheck's own methods, pre-asymptotic at these steps: left out of the verdict (a method of ours "
-              "is the study's yardstick, not its subject; the engines' and the reference decide)")
-
-
 def _too_early(m: MethodResult, order, expected: int, note: str) -> Check:
     """The order check of a method pre-asymptotic at the study's steps: an engine's is undecided (finer steps would
     decide it, said in ``note``); one of ours is left out of the verdict (issue 63: lie-lgvi on a near-sleeping top,
     0.17 rad off at 1/4096 s, its second-order phase error, made the study INCONCLUSIVE), said in ``known``."""
-    runner = RUNNERS.get(m.name)
-    if runner is not None and runner.engine == "xcheck":
+    if m.engine == "xcheck":
         return Check("order", False, m.name, order, expected, note, known=OURS_EARLY)
     return Check("order", False, m.name, order, expected, note, inconclusive=True)
 
@@ -147,6 +141,13 @@ def _too_early(m: MethodResult, order, expected: int, note: str) -> Check:
 #: each step adds up over a long run (measured, a near-isotropic body over 512 s: about 2.2e-16 rad a step for
 #: four methods of ours, 4e-12 rad at 1/32 s); ten times eps for the spread of a final-time error.
 ROUNDOFF_PER_STEP = 2.2e-15
+
+
+def _local_orders(runs, above=lambda dt, e: True) -> list[tuple[float, float, float]]:
+    """``(local order, coarser step, finer step)`` of consecutive ``(step, error)`` runs (coarse to fine) of
+    distinct steps whose finer run is ``above(step, error)``."""
+    return [(math.log(e1 / e2) / math.log(d1 / d2), d1, d2) for (d1, e1), (d2, e2) in zip(runs, runs[1:])
+            if d1 != d2 and above(d2, e2)]
 
 
 def _above_roundoff(m: MethodResult, duration: float | None) -> tuple[list[float], str]:
@@ -160,9 +161,8 @@ def _above_roundoff(m: MethodResult, duration: float | None) -> tuple[list[float
     if len(runs) < 2:
         return [], ""
     lowest = min(e for _, e in runs)
-    (d1, e1), (d2, e2) = runs[-2], runs[-1]
-    levels = (d1 != d2 and lowest <= ROUNDOFF_SCALE
-              and math.log(e1 / e2) / math.log(d1 / d2) < 0.25 * (m.expected_order or 1))
+    finest = _local_orders(runs[-2:])
+    levels = bool(finest) and lowest <= ROUNDOFF_SCALE and finest[0][0] < 0.25 * (m.expected_order or 1)
     band = ROUNDOFF_BAND * lowest if levels else 0.0
     if levels:
         why = (f"its error levels off at {lowest:.2g} rad at its finest steps: its own round-off floor, errors within "
@@ -171,9 +171,7 @@ def _above_roundoff(m: MethodResult, duration: float | None) -> tuple[list[float
         why = (f"its finer errors are within the round-off of their steps ({ROUNDOFF_PER_STEP:g} rad a step over "
                f"{duration:g} s)") if duration else ""
     floor = lambda dt: max(band, ROUNDOFF_PER_STEP * duration / dt if duration else 0.0)  # noqa: E731
-    pairs = [(math.log(a / b) / math.log(da / db)) for (da, a), (db, b) in zip(runs, runs[1:])
-             if da != db and b > floor(db)]
-    return pairs, why
+    return [p for p, _, _ in _local_orders(runs, lambda dt, e: e > floor(dt))], why
 
 
 def _pre_asymptotic(m: MethodResult, expected: int) -> str:
@@ -190,8 +188,7 @@ def _pre_asymptotic(m: MethodResult, expected: int) -> str:
     dt_f, e_f = runs[-1]
     if e_f > ORDER_CEILING / 2:
         return f"the error is still {e_f:.2g} rad at the finest step {step_label(dt_f)} s"
-    pairs = [(math.log(e1 / e2) / math.log(d1 / d2), d1, d2) for (d1, e1), (d2, e2) in zip(runs, runs[1:])
-             if e2 > 10 * ORDER_FLOOR and d1 != d2]
+    pairs = _local_orders(runs, lambda dt, e: e > 10 * ORDER_FLOOR)
     local = [p for p, _, _ in pairs]
     failed = sum(not r.ok for r in m.runs if r.setting > dt_f)
     if local and local[-1] > expected + 0.5 and (failed or len(local) == 1):

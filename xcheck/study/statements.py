@@ -41,9 +41,7 @@ def consistency(method: str, checks) -> str:
     if any(c.failed and not c.known for c in related):
         return "no"
     if any(c.known for c in related):
-        from .checks import OURS_EARLY
-
-        return "pre-asymptotic" if all(c.known == OURS_EARLY for c in related if c.known) else "known finding"
+        return "pre-asymptotic" if all(c.left_out for c in related if c.known) else "known finding"
     if any(c.inconclusive for c in related):
         return "undecided"
     return "yes" if related else "—"
