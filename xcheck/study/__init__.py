@@ -417,6 +417,41 @@ def _fitted(runs) -> list:
     return [None if r.substeps else r.attitude_error for r in runs]
 
 
+#: Where no order is measured below :data:`~xcheck.metrics.ORDER_CEILING`, errors up to this [rad] may measure one
+#: (issue 63): an attitude error is the angle of the error rotation, linear in the error's generator far from pi
+#: (at 1 rad, within 4 % of it), so a first-order engine 0.33, 0.16, 0.082 rad off at 1/512 … 1/2048 s on a
+#: near-separatrix body shows its order 1.00, 1.00 there, where the small-error regime would need 1/65536 s.
+WIDE_CEILING = 1.0
+#: ... when its local orders there agree to this: a method still settling into its asymptotic range does not.
+WIDE_AGREEMENT = 0.1
+
+
+def _wide_orders(scenario: Scenario, methods: dict, checks: list, floor: float) -> bool:
+    """Give each engine method whose order check is undecided for want of an order in the small-error regime (its
+    steps pre-asymptotic there) the order fitted on errors up to :data:`WIDE_CEILING`, where three runs or more fall
+    below it and their finest local orders (:data:`~xcheck.metrics.ORDER_POINTS`) agree to :data:`WIDE_AGREEMENT`
+    (``methods``, in place). Only those: an order decided, or a known finding named, stays as it was. Whether any
+    did (the checks are then made again)."""
+    from ..metrics import ORDER_CEILING, ORDER_POINTS
+
+    changed = False
+    for c in checks:
+        m = methods.get(c.method)
+        if not (c.kind == "order" and c.inconclusive and c.value is None and m is not None and not m.adaptive):
+            continue
+        runs = [r for r in m.runs if r.setting in set(ladder_steps([r.setting for r in m.runs], scenario.your_step))]
+        fit = observed_order([r.setting for r in runs], _fitted(runs), floor=floor, ceiling=WIDE_CEILING)
+        finest = fit.local_orders[-ORDER_POINTS:]
+        if fit.order is None or len(finest) < 2 or max(finest) - min(finest) > WIDE_AGREEMENT:
+            continue
+        local = ", ".join(f"{p:.2f}" for p in finest)
+        methods[c.method] = replace(m, observed_order=fit.order, local_orders=fit.local_orders, order_note=(
+            f"{fit.note}, on errors up to {WIDE_CEILING:g} rad (fewer than two fell within the {ORDER_CEILING:g} rad "
+            f"of the small-error regime: its local orders here, {local}, agree to {WIDE_AGREEMENT:g})"))
+        changed = True
+    return changed
+
+
 def _substepped(dts) -> str:
     """The order note's words for the runs left out of it because their steps were taken as substeps."""
     at = ", ".join(step_label(dt) for dt in dts)
@@ -475,6 +510,8 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
     over_budget = {m: (left, why) for m, (_, left, why) in (planned or {}).items() if left and m not in broken}
     if checks is None:
         checks = study_checks(scenario, methods, scenario.checks, quick, comparisons)
+        if _wide_orders(scenario, methods, checks, floor):
+            checks = study_checks(scenario, methods, scenario.checks, quick, comparisons)
         checks = _budget_undecided(checks, over_budget)
     reference_check = next((res.reference_check for res in results if res.reference_check), None)
     used = reference_check["used"] if reference_check else scenario.reference
