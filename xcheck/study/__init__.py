@@ -439,7 +439,8 @@ def _wide_orders(scenario: Scenario, methods: dict, checks: list, floor: float) 
         m = methods.get(c.method)
         if not (c.kind == "order" and c.inconclusive and c.value is None and m is not None and not m.adaptive):
             continue
-        runs = [r for r in m.runs if r.setting in set(ladder_steps([r.setting for r in m.runs], scenario.your_step))]
+        ladder = set(ladder_steps([r.setting for r in m.runs], scenario.your_step))  # the steps assemble fits
+        runs = [r for r in m.runs if r.setting in ladder]
         fit = observed_order([r.setting for r in runs], _fitted(runs), floor=floor, ceiling=WIDE_CEILING)
         finest = fit.local_orders[-ORDER_POINTS:]
         if fit.order is None or len(finest) < 2 or max(finest) - min(finest) > WIDE_AGREEMENT:
