@@ -471,6 +471,86 @@ def test_an_undecided_order_whose_every_error_is_the_references_noise_passes():
         Run(dt=2.0 ** -k, attitude_error=e, wall_time=0) for k, e in ((6, 8.6e-10), (7, 1.1e-9), (8, 3.7e-9),
                                                                       (10, 4.3e-9))])
     checks = [Check("order", False, "exudyn-rk67", None, 6, "no asymptotic range at these steps", inconclusive=True)]
-    qualify(sc, {"exudyn-rk67": m}, checks, reference="exact", reference_check={"uncertainty": 3.4e-8, "text": "t"},
-            comparisons=[])
+    reasons = qualify(sc, {"exudyn-rk67": m}, checks, reference="exact",
+                      reference_check={"uncertainty": 3.4e-8, "text": "t"}, comparisons=[])
     assert checks[0].status == "pass" and "every error within ten times" in checks[0].note
+    assert reasons == []  # no check left undecided by the reference's certainty (the study PASSED)
+
+
+def _rod_euler(errors, finest_wall=0.13, engine="mujoco", name="mujoco-euler"):
+    """MuJoCo's Euler on tests/data/thin_rod.xml (1 s) at 1/16384 ... s with ``errors``: the finest run took
+    ``finest_wall`` s (measured: 0.13 s at 1/65536 s, 2 us a step)."""
+    steps = [2.0 ** -k for k in range(14, 14 + len(errors))]
+    return MethodResult(name=name, engine=engine, expected_order=1, runs=[
+        Run(dt=dt, attitude_error=e, wall_time=finest_wall * steps[-1] / dt) for dt, e in zip(steps, errors)])
+
+
+def test_finer_steps_are_planned_where_the_finest_errors_are_too_large_to_show_an_order():
+    """Issue 63: on the thin rod MuJoCo's Euler is 1.8, 0.863, 0.423 rad off at 1/16384 ... 1/65536 s: two runs within
+    1 rad (WIDE_CEILING), three needed. Extrapolated at order 1, 1/131072 s brings the third (0.21 rad) and one more
+    is run: 1/131072, 1/262144 s (0.8 s). From one run within 1 rad (0.6 rad at the finest), three halvings. None for
+    a check a known finding explains, for one of our methods, where the finer runs would cost more than the budget,
+    or where four halvings would not bring three runs within 1 rad."""
+    from xcheck.defaults import DEFAULT_CHECKS
+    from xcheck.study import WIDE_CEILING
+    from xcheck.study.checks import _order
+    from xcheck.study.finer import FINER_BUDGET, finer_steps
+    from pathlib import Path
+
+    sc = resolve_scenario(str(Path(__file__).parent / "data" / "thin_rod.xml"))
+
+    def plan(m, known="", quick=True):
+        check = _order(m, DEFAULT_CHECKS, {})
+        check.known = known
+        return finer_steps(sc, {m.name: m}, [check], {}, quick, WIDE_CEILING)
+
+    assert _order(_rod_euler([1.8, 0.863, 0.423]), DEFAULT_CHECKS, {}).status == "inconclusive"
+    assert plan(_rod_euler([1.8, 0.863, 0.423])) == {"mujoco-euler": (2.0 ** -17, 2.0 ** -18)}
+    assert plan(_rod_euler([2.4, 1.23, 1.21, 0.6])) == {"mujoco-euler": (2.0 ** -18, 2.0 ** -19, 2.0 ** -20)}
+    assert plan(_rod_euler([1.8, 0.863, 0.423]), known="a finding") == {}
+    assert plan(_rod_euler([1.8, 0.863, 0.423], engine="xcheck", name="lie-rkmk4")) == {}
+    # 1/131072 + 1/262144 s: six times the finest run's steps, at 1.5 times its seconds a step
+    assert plan(_rod_euler([1.8, 0.863, 0.423], finest_wall=FINER_BUDGET[True] / 8.5)) == {}
+    assert plan(_rod_euler([1.8, 0.863, 0.423], finest_wall=FINER_BUDGET[True] / 9.5)) != {}
+    assert plan(_rod_euler([30.0, 20.0, 12.0])) == {}  # four halvings: one run within 1 rad (0.75)
+
+
+def test_a_thin_rod_decides_with_mujocos_euler_at_finer_steps():
+    """Issue 63: tests/data/thin_rod.xml's quick study with MuJoCo's Euler was INCONCLUSIVE (1.8, 0.86, 0.42 rad off
+    at its finest steps, two runs within 1 rad). The study runs it at 1/131072 and 1/262144 s too and says so; the
+    error halves with the step there (truth: first order, to 5 %) and the study PASSED, order 1.00."""
+    from pathlib import Path
+
+    from xcheck.study import finer_lines
+
+    sc = resolve_scenario(str(Path(__file__).parent / "data" / "thin_rod.xml"))
+    st = run_study(sc, methods=["mujoco-euler", "lie-rkmk4"], quick=True, workers=1, timing=False)
+    assert st.finer == {"mujoco-euler": (2.0 ** -17, 2.0 ** -18)}
+    assert st.outcome == "PASSED", [(c.name, c.status, c.note) for c in st.checks if c.status != "pass"]
+    runs = st.methods["mujoco-euler"].runs
+    assert [r.dt for r in runs[-2:]] == [2.0 ** -17, 2.0 ** -18]
+    assert runs[-2].attitude_error / runs[-1].attitude_error == pytest.approx(2.0, rel=0.05)
+    assert st.methods["mujoco-euler"].observed_order == pytest.approx(1.0, abs=0.03)
+    assert finer_lines(st) == ["mujoco-euler also run at 1/131072, 1/262144 s, finer than the study's steps, to decide "
+                               "its order (the finest errors were still too large to show one): observed 1.01"]
+    assert st.data["finer"] == {"mujoco-euler": [2.0 ** -17, 2.0 ** -18]}
+
+
+def test_the_reports_studies_run_the_finer_steps_in_a_second_round():
+    """Issue 63: the report's path (run_studies, every scenario's tasks in one round) runs the finer steps of a study
+    that needs them in a second round, and hands that study on (on_study) once, with them: the same finer steps and
+    order as run_study's (the test above); a study that needs none (boxes-simple) is handed on as before, first."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    from xcheck.study import run_studies
+
+    rod = resolve_scenario(str(Path(__file__).parent / "data" / "thin_rod.xml"))
+    box = resolve_scenario("boxes-simple")
+    handed = []
+    studies = run_studies([replace(rod, methods=["mujoco-euler", "lie-rkmk4"]), replace(box, methods=["lie-rkmk4"])],
+                          quick=True, workers=1, on_study=handed.append)
+    assert [st.name for st in handed] == ["boxes-simple", rod.name]
+    assert studies[0].finer == {"mujoco-euler": (2.0 ** -17, 2.0 ** -18)} and studies[1].finer == {}
+    assert studies[0].outcome == "PASSED" and studies[0].methods["mujoco-euler"].observed_order == pytest.approx(
+        1.0, abs=0.03)

@@ -40,7 +40,7 @@ def list_all(*, ctx: Context) -> Outcome:
 
 def study_lines(st) -> list[str]:
     """A study as the terminal shows it: the verdict, one line per method, each failed or undecided check."""
-    from ..study import engine_said_lines, left_out_lines
+    from ..study import engine_said_lines, finer_lines, left_out_lines
     from ..study.checks import check_summary
     from ..study.your_step import answer_line
 
@@ -56,6 +56,7 @@ def study_lines(st) -> list[str]:
     lines += advice_block(st)
     lines += built_block(st)
     lines += [f"  {line}" for line in left_out_lines(st)]
+    lines += [f"  {line}" for line in finer_lines(st)]
     lines += [f"  {line}" for line in engine_said_lines(st)]
     if st.files:
         from .score import file_lines

@@ -389,7 +389,7 @@ def _answer_runs(st) -> list:
 
 
 def _scenario_blocks(st, figs) -> list:
-    from ..study import engine_said_lines, left_out_lines
+    from ..study import engine_said_lines, finer_lines, left_out_lines
 
     sc = st.scenario
     blocks = [Heading(2, sc.name, anchor=sc.name, badge=BADGES[st.outcome])]
@@ -471,6 +471,8 @@ def _scenario_blocks(st, figs) -> list:
         blocks.append(Table(["method", *(f"rtol {t:.0e}" for t in tols), "evaluations"], rows))
     for line in left_out_lines(st):  # never a silent gap
         blocks.append(Para([("Left out: ", "b"), (line + ".", None)], small=True))
+    for line in finer_lines(st):  # steps the study added
+        blocks.append(Para([("Added: ", "b"), (line + ".", None)], small=True))
     for line in engine_said_lines(st):  # an engine's own warnings, caught (base.captured)
         blocks.append(Para([("An engine said: ", "b"), (line, None)], small=True))
     blocks += _file_blocks(st)

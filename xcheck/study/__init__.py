@@ -33,6 +33,7 @@ from .advice import advice
 from .checks import adaptive_note, planned_checks, qualify, study_checks, study_floor, verdict
 from .executor import map_tasks, prefer_here
 from .files import score_trajectories
+from .finer import finer_steps, merged
 from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_methods
 from .statements import accuracy, consistency
 from .store import keep, stored, study_key
@@ -40,7 +41,7 @@ from .your_step import your_step_answer
 
 __all__ = ["run_study", "run_studies", "starting", "COMPILING", "assemble", "StudyResult", "PLOT_SAMPLE_DT",
            "throughput_rows", "planned_checks", "default_methods", "not_run", "comparison_partner", "method_steps",
-           "left_out_lines"]
+           "left_out_lines", "finer_lines", "FINER"]
 
 #: 2: the answer at the user's step, ``your_step`` (issue 59); 3: the invariants signed and apart (issue 60)
 SCHEMA = "xcheck.convergence/3"
@@ -91,6 +92,8 @@ class StudyResult:
     #: what each engine of the study was given for the body (:mod:`xcheck.engines.built`): ``{"body": the body in
     #: words, "engines": engine -> sentence}``; {} where no method said
     built: dict = field(default_factory=dict)
+    #: the finer steps run beyond the study's to decide an engine's order (:mod:`xcheck.study.finer`): name -> steps
+    finer: dict = field(default_factory=dict)
 
     @property
     def outcome(self) -> str:
@@ -138,6 +141,7 @@ class StudyResult:
                 **({"flips": dict(self.flips)} if self.flips else {}),
                 **({"precession": dict(self.precession)} if self.precession else {}),
                 **({"advice": list(self.advice)} if self.advice else {}),
+                **({"finer": {m: list(d) for m, d in self.finer.items()}} if self.finer else {}),
                 **({"built": dict(self.built)} if self.built else {})}
 
 
@@ -242,6 +246,24 @@ def left_out_lines(st: StudyResult) -> list[str]:
     return [f"{', '.join(names)} not run{where}: {why}" for (where, why), names in groups.items()]
 
 
+def finer_lines(st: StudyResult) -> list[str]:
+    """The finer steps a study ran beyond its own to decide an engine's order (:attr:`StudyResult.finer`), one line
+    for the methods run at the same steps: what the report and the terminal say of them."""
+    from ..trajectory import step_label
+
+    groups: dict = {}
+    for name, dts in st.finer.items():
+        groups.setdefault(tuple(dts), []).append(name)
+    out = []
+    for dts, names in groups.items():
+        orders = [st.methods[n].observed_order if n in st.methods else None for n in names]
+        said = ", ".join("—" if p is None else f"{p:.2f}" for p in orders)
+        out.append(f"{', '.join(names)} also run at {', '.join(step_label(d) for d in dts)} s, finer than the study's "
+                   f"steps, to decide {'its' if len(names) == 1 else 'their'} order (the finest errors were still too "
+                   f"large to show one): observed {said}")
+    return out
+
+
 def comparison_partner(scenario: Scenario, method: str, methods) -> str | None:
     """Which of our methods an engine's method is compared with directly, trajectory against trajectory at
     the same step (no reference needed): its twin (the same scheme: MuJoCo's RK4 and ``lie-rkmk4``, Basilisk's
@@ -300,10 +322,28 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     done = map_tasks(run_methods, tasks, workers=workers, progress=progress, pool=pool,
                      labels=[_label(task) for task in tasks], here=prefer_here if here else None)
     by_method = {r.method: r for task_runs in done for r in task_runs}
-    st = score_trajectories(about_the_model(assemble(scenario, steps, [by_method[m] for m in methods],
-                                                     quick=as_quick, planned=planned), quick))
+    results = [by_method[m] for m in methods]
+    st = assemble(scenario, steps, results, quick=as_quick, planned=planned)
+    finer = _finer(st, as_quick)
+    if finer:  # an engine's order undecided at the study's steps: its next halvings, where they are cheap
+        tasks = study_tasks(scenario, list(finer), {m: (d, (), "") for m, d in finer.items()}, tolerances, timing)
+        starting(progress, len(tasks), FINER)
+        done = map_tasks(run_methods, tasks, workers=workers, progress=progress, pool=pool,
+                         labels=[_label(task) for task in tasks], here=prefer_here if here else None)
+        st = assemble(scenario, steps, merged(results, [r for task_runs in done for r in task_runs]), quick=as_quick,
+                      planned=planned, finer=finer)
+    st = score_trajectories(about_the_model(st, quick))
     keep(key, st, timing)
     return st
+
+
+#: What the bar says while a study runs the finer steps that decide an engine's order (:mod:`xcheck.study.finer`).
+FINER = "finer steps to decide an engine's order"
+
+
+def _finer(st: StudyResult, quick: bool) -> dict:
+    """The finer steps (:func:`~xcheck.study.finer.finer_steps`) a study ``st`` runs to decide its engines' orders."""
+    return finer_steps(st.scenario, st.methods, st.checks, st.over_budget, quick, WIDE_CEILING)
 
 
 def study_tasks(scenario: Scenario, methods, planned: dict, tolerances, timing: bool = True) -> list[tuple]:
@@ -365,20 +405,39 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
     studies: list = [None] * len(plans)
     results: list = [{} for _ in plans]  # per study: method -> MethodRuns
 
+    finer: dict = {}  # study -> method -> finer steps (issue 63): those studies end after a second round
+
+    def finish(k, st):
+        studies[k] = score_trajectories(about_the_model(st, quick))
+        keep(keys[k], studies[k], True)
+        if on_study:
+            on_study(studies[k])
+
     def done(i, task_runs):
         k = owner[i]
         results[k].update((r.method, r) for r in task_runs)
         missing[k] -= 1
         if missing[k] == 0:
             sc, methods, steps, planned = plans[k]
-            studies[k] = score_trajectories(about_the_model(assemble(sc, steps, [results[k][m] for m in methods],
-                                                                     quick=quick, planned=planned), quick))
-            keep(keys[k], studies[k], True)
-            if on_study:
-                on_study(studies[k])
+            st = assemble(sc, steps, [results[k][m] for m in methods], quick=quick, planned=planned)
+            finer[k] = _finer(st, quick)
+            if not finer[k]:
+                finish(k, st)
 
     map_tasks(run_methods, tasks, workers=workers, progress=progress, pool=pool, labels=[_label(t) for t in tasks],
               on_result=done, here=prefer_here if here else None, idle=idle)
+    later = [k for k, f in finer.items() if f]
+    if later:
+        more = [(k, task) for k in later for task in study_tasks(plans[k][0], list(finer[k]), {
+            m: (d, (), "") for m, d in finer[k].items()}, tolerances[k])]
+        starting(progress, len(more), FINER)
+        done = map_tasks(run_methods, [task for _, task in more], workers=workers, progress=progress, pool=pool,
+                         labels=[_label(task) for _, task in more], here=prefer_here if here else None)
+        for k in later:
+            sc, methods, steps, planned = plans[k]
+            runs = [r for (j, _), task_runs in zip(more, done) if j == k for r in task_runs]
+            finish(k, assemble(sc, steps, merged([results[k][m] for m in methods], runs), quick=quick,
+                               planned=planned, finer=finer[k]))
     return studies
 
 
@@ -386,13 +445,13 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
 COMPILING = "compiling xcheck's integrators for this machine (once per release)"
 
 
-def starting(progress, total: int) -> None:
+def starting(progress, total: int, what: str | None = None) -> None:
     """The bar's first line, before the first run ends (the reference's check, and on a first run the compiling, take
-    seconds of their own): what is being done meanwhile."""
+    seconds of their own): what is being done meanwhile (``what``, where it is known)."""
     if progress:
         from ..integrators import compile_cache_is_cold
 
-        progress(0, total, COMPILING if compile_cache_is_cold() else "checking the reference")
+        progress(0, total, what or (COMPILING if compile_cache_is_cold() else "checking the reference"))
 
 
 def guard_references(scenarios) -> None:
@@ -461,10 +520,11 @@ def _substepped(dts) -> str:
             "out of its order")
 
 
-def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned=None) -> StudyResult:
+def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned=None, finer=None) -> StudyResult:
     """Orders, checks and verdicts from the workers' results. ``quick``: the final-error and invariant
     checks, which are about the finest steps of the full study, are not applied. ``planned``: each method's
-    :func:`method_steps` (what it left out is said)."""
+    :func:`method_steps` (what it left out is said). ``finer``: the finer steps run to decide an engine's order
+    (:mod:`xcheck.study.finer`), already among its runs (said)."""
     broken = {}
     for res in results:  # an engine installed but failing to import here: left out, said, and in the versions line
         if res.import_error:
@@ -529,7 +589,7 @@ def assemble(scenario: Scenario, steps, results, *, quick: bool = False, planned
                                                          if m not in methods and _offered(RUNNERS[m])}, **broken},
                        over_budget=over_budget, your_step=answer, flips=_flips(results), precession=_cone(results),
                        advice=[] if reference_error else advice(scenario, methods),
-                       built=_built(results))
+                       built=_built(results), finer=dict(finer or {}))
 
 
 def _built(results) -> dict:

@@ -436,6 +436,7 @@ def qualify(scenario: Scenario, methods: dict, checks: list, *, reference: str, 
             reasons.append(f"the reference is {reference_check.get('text', 'unchecked')}")
     uncertainty = (reference_check or {}).get("uncertainty") or 0.0
     if uncertainty > cfg["final_error"]:
+        uncertain = False
         for c in checks:
             if not (c.failed and c.kind in ("final-error", "agreement") and c.value is not None):
                 continue
@@ -445,10 +446,10 @@ def qualify(scenario: Scenario, methods: dict, checks: list, *, reference: str, 
                            "amplifies the last bit of its inputs), above the limit: as close as double precision "
                            "tells here")
             elif c.value <= 10 * uncertainty:
-                c.inconclusive = True
+                c.inconclusive = uncertain = True
                 c.note += (f"; the reference is certain only to {uncertainty:.2g} rad for this motion (it amplifies the "
                            "last bit of its inputs): this error cannot be told from the reference's")
-        if any(c.inconclusive for c in checks):
+        if uncertain:  # (not another check undecided for its own reason: it says so, and may yet pass below)
             reasons.append(f"the reference is certain only to {uncertainty:.2g} rad for this motion, above the "
                            f"checks' limit {cfg['final_error']:g} rad: {reference_check.get('text', '')}")
     if uncertainty > 0:
