@@ -274,6 +274,7 @@ def test_a_correct_file_passes_and_the_detective_stays_quiet(tmp_path):
 # bad input: refused, naming the file, the line and the column, exit 2, before any other work
 # ------------------------------------------------------------------------------------------------------
 GOOD = "t_s,qw,qx,qy,qz\n0,1,0,0,0\n0.5,1,0,0,0\n1.0,1,0,0,0\n"
+DCM_HEADER = "t_s,R11,R12,R13,R21,R22,R23,R31,R32,R33\n"
 
 
 @pytest.mark.parametrize("text, declaration, message", [
@@ -297,6 +298,22 @@ GOOD = "t_s,qw,qx,qy,qz\n0,1,0,0,0\n0.5,1,0,0,0\n1.0,1,0,0,0\n"
     (GOOD, 'frame = "ned"\n', "frame: 'ned' is the local North-East-Down frame of the scenario's [earth] table"),
     (GOOD, 'colour = "red"\n', "colour: unknown key"),
     (GOOD, 'attitude = "dcm"\nsequence = "321"\n', "only Euler angles have a sequence"),
+    # issue 64: finite in the file, not in the arithmetic (each exited 3, or scored, before)
+    ("t_s,qw,qx,qy,qz,wx_rad_s,wy_rad_s,wz_rad_s\n0,1,0,0,0,1e200,1.2,-0.7\n1,1,0,0,0,0.3,1.2,-0.7\n", "",
+     "line 2: the body rate [1e+200, 1.2, -0.7] (wx_rad_s, wy_rad_s, wz_rad_s) exceeds 1e+05 rad/s in magnitude"),
+    ("t_s,qw,qx,qy,qz,wx,wy,wz\n0,1,0,0,0,1e307,1.2,-0.7\n1,1,0,0,0,0.3,1.2,-0.7\n",
+     'rates = ["wx", "wy", "wz"]\nrates_unit = "deg/s"\n', "(wx, wy, wz) exceeds 5.73e+06 deg/s in magnitude"),
+    ("t_s,qw,qx,qy,qz\n0,0,0,0,0\n1,1,0,0,0\n", "normalise = true\n",
+     "line 2: the quaternion [0.0, 0.0, 0.0, 0.0] (qw, qx, qy, qz) has norm 0: no rotation, normalised or not"),
+    (DCM_HEADER + "0,1,0,0,0,1,0,0,0,-1\n1,1,0,0,0,1,0,0,0,1\n", 'attitude = "dcm"\n',
+     "line 2: the matrix (R11, R12, R13, R21, R22, R23, R31, R32, R33) is a reflection (determinant < 0)"),
+    (DCM_HEADER + "0,0,0,0,0,0,0,0,0,0\n1,1,0,0,0,1,0,0,0,1\n", 'attitude = "dcm"\nnormalise = true\n',
+     "line 2: the matrix (R11, R12, R13, R21, R22, R23, R31, R32, R33) is zero: no rotation is nearest to it"),
+    (DCM_HEADER + "0,1,0,0,0,1,0,0,0,0\n1,1,0,0,0,1,0,0,0,1\n", 'attitude = "dcm"\nnormalise = true\n',
+     "line 2: the matrix (R11, R12, R13, R21, R22, R23, R31, R32, R33) is singular"),
+    ("t_s,a,b,c\n0,0,0,0\n1,1e300,0,0\n", 'attitude = "euler"\ncolumns = ["a", "b", "c"]\nangle_unit = "deg"\n',
+     "line 3: the Euler angles [1e+300, 0.0, 0.0] (a, b, c) exceed 5.73e+07 deg"),
+    ("t_s,qw,qx,qy,qz\n0,1,0,0,0\n0.5,1,0_5,0,0\n", "", "line 3, column 'qx': '0_5' is not a number"),
 ])
 def test_bad_trajectory_files_are_refused_naming_the_line_and_column(tmp_path, capsys, text, declaration, message):
     path = tmp_path / "sim.csv"
@@ -311,6 +328,24 @@ def test_bad_trajectory_files_are_refused_naming_the_line_and_column(tmp_path, c
     assert code == 2, err
     assert message in err, err
     assert str(path) in err or "sim.csv" in err
+
+
+def test_a_quaternion_whose_norm_overflows_is_normalised_and_scored_with_finite_numbers(tmp_path, capsys):
+    """Issue 64: a quaternion [1e300, 1e300, 0, 0] (its norm overflows a double when squared) with normalise = true
+    exited 3 ("a zero quaternion does not represent a rotation"). Truth: it is the turn of pi/2 about x, 1.5708 rad
+    from the tumbler's start (the identity), its error at t = 0; the JSON is written, every number finite. Its
+    default rates are said as read ("no rates" was said)."""
+    path = tmp_path / "sim.csv"
+    path.write_text("t_s,qw,qx,qy,qz,wx_rad_s,wy_rad_s,wz_rad_s\n0,1e300,1e300,0,0,0,0,0\n1,1,0,0,0,0,0,0\n")
+    (tmp_path / "sim.csv.toml").write_text("normalise = true\n")
+    out = tmp_path / "score.json"
+    assert main(["score", str(path), "--scenario", "tumbler-intermediate-axis", "--json", str(out)]) == 1
+    captured = capsys.readouterr()
+    assert "Warning" not in captured.err, captured.err
+    assert "Infinity" not in out.read_text() and "NaN" not in out.read_text()  # json.loads would take them
+    data = json.loads(out.read_text())
+    assert data["max_attitude_error"] >= math.pi / 2 - 1e-9
+    assert "rates in body components [rad/s]" in data["convention"]
 
 
 def test_a_file_that_is_not_text_is_named(tmp_path, capsys):
@@ -391,3 +426,24 @@ def test_the_bricks_model_holds_the_cases_mass_properties():
     assert np.count_nonzero(body.inertia - np.diag(np.diag(body.inertia))) == 0
     assert body.mass == pytest.approx(0.155404754 * 14.593902937206364, rel=1e-15)
     np.testing.assert_allclose(NESC.omega0, np.radians([10.0, 20.0, 30.0]), rtol=1e-15)
+
+
+def test_a_bad_trajectory_file_is_refused_before_the_study_runs(tmp_path):
+    """Issue 64: a [[trajectory]] whose CSV is malformed was refused after the whole study had run (7-15 s). Now
+    before any run: the study's progress is never called, and the refusal names the file, the line and the column.
+    The report's path (run_studies) refuses it the same way, before any of its scenarios' runs."""
+    from xcheck.scoring.reader import TrajectoryFileError
+    from xcheck.study import run_studies, run_study
+
+    base = TUMBLER.path.read_text().replace('model = "../tumbler.xml"', f'model = "{TUMBLER.model}"')
+    (tmp_path / "sim.csv").write_text("t_s,qw,qx,qy,qz\n0,1,0,0,0\n0.5,1,0,x,0\n")
+    path = tmp_path / "s.toml"
+    path.write_text(base + '\n[[trajectory]]\nfile = "sim.csv"\n')
+    sc = load_scenario(path)
+    calls = []
+    for run in (lambda: run_study(sc, quick=True, workers=1, progress=lambda *a: calls.append(a)),
+                lambda: run_studies([resolve_scenario("boxes-simple"), sc], quick=True, workers=1,
+                                    progress=lambda *a: calls.append(a))):
+        with pytest.raises(TrajectoryFileError, match=r"sim\.csv: line 3, column 'qy': 'x' is not a number"):
+            run()
+    assert calls == []

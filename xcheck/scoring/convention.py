@@ -89,13 +89,15 @@ class Convention:
             return self.columns
         return _DEFAULT_COLUMNS[(self.attitude, self.scalar if self.attitude == "quaternion" else "first")]
 
-    def describe(self) -> str:
-        """The convention in words, for the report (``quaternion [w x y z] body -> world``)."""
+    def describe(self, rates_read=None) -> str:
+        """The convention in words, for the report (``quaternion [w x y z] body -> world``); ``rates_read``: the
+        rate columns the file was read with (its default ones where none are declared; issue 64: "no rates" was
+        said of a file whose default rates were read)."""
         what = {"quaternion": f"quaternion, scalar {self.scalar}", "dcm": "direction-cosine matrix (row by row)",
                 "euler": f"Euler angles {self.sequence} [{self.angle_unit}]"}[self.attitude]
         where = "world" if self.frame == "world" else "local NED"
         arrow = f"body -> {where}" if self.direction == "body-to-frame" else f"{where} -> body"
-        rates = ("no rates" if not self.rates else
+        rates = ("no rates" if not (rates_read or self.rates) else
                  f"rates in {self.rates_frame} components [{self.rates_unit}], relative to "
                  f"{'inertial space' if self.rates_relative_to == 'inertial' else 'the ' + where + ' frame'}")
         return f"{what}, {arrow}; {rates}"
@@ -240,6 +242,58 @@ class Converted:
 
 #: Quaternions and matrices further than this from unit norm (orthonormality) are refused unless ``normalise``.
 UNIT_TOLERANCE = 1e-6
+#: Euler angles larger than this [rad] are refused: a double keeps no digit of a turn past about 1e15 rad, and no
+#: simulator's angle wraps that far (issue 64: a file's numbers are bounded where they are read).
+MAX_ANGLE = 1e6
+
+
+def _norms(X: np.ndarray) -> np.ndarray:
+    """The Euclidean norm of each row of ``X``, computed without overflow (rows of 1e300)."""
+    scale = np.max(np.abs(X), axis=1) if X.size else np.zeros(len(X))
+    safe = np.where(scale > 0, scale, 1.0)
+    return scale * np.sqrt(np.sum((X / safe[:, None]) ** 2, axis=1))
+
+
+def _bounded(conv: Convention, A: np.ndarray, W, where: str, row) -> None:
+    """The gate of a file's numbers before they are converted (issue 64): an attitude that cannot be made a rotation
+    (a quaternion of norm 0, a matrix that is singular or a reflection, even to normalise: no rotation is nearest
+    to it), Euler angles beyond :data:`MAX_ANGLE`, and body rates beyond :data:`~xcheck.body.MAX_RATE` (after the
+    unit) are refused, naming the file, the line, the columns and the bound: a ValueError."""
+    from ..body import MAX_RATE
+
+    if conv.attitude == "quaternion":
+        bad = np.flatnonzero(~(_norms(A) > 0))
+        if bad.size:
+            k = int(bad[0])
+            raise ValueError(f"{where}, {row(k)}: the quaternion {A[k].tolist()} ({', '.join(conv.attitude_columns)}) "
+                             "has norm 0: no rotation, normalised or not")
+    elif conv.attitude == "dcm":
+        R = A.reshape(-1, 3, 3)
+        scale = np.max(np.abs(A), axis=1) if A.size else np.zeros(0)
+        det = np.linalg.det(R / np.where(scale > 0, scale, 1.0)[:, None, None]) if len(R) else np.zeros(0)
+        bad = np.flatnonzero(~((scale > 0) & (det > 1e-9)))
+        if bad.size:
+            k = int(bad[0])
+            what = "is zero" if scale[k] == 0 else "is a reflection (determinant < 0)" if det[k] < 0 else "is singular"
+            raise ValueError(f"{where}, {row(k)}: the matrix ({', '.join(conv.attitude_columns)}) {what}: no rotation "
+                             "is nearest to it, orthonormalised or not")
+    else:
+        limit = np.degrees(MAX_ANGLE) if conv.angle_unit == "deg" else MAX_ANGLE
+        bad = np.flatnonzero(np.max(np.abs(A), axis=1) > limit) if A.size else np.zeros(0, int)
+        if bad.size:
+            k = int(bad[0])
+            raise ValueError(f"{where}, {row(k)}: the Euler angles {A[k].tolist()} ({', '.join(conv.attitude_columns)})"
+                             f" exceed {limit:.3g} {conv.angle_unit}: expected angles of at most that size")
+    if W is not None:
+        W = np.asarray(W, dtype=float)
+        limit = np.degrees(MAX_RATE) if conv.rates_unit == "deg/s" else MAX_RATE
+        bad = np.flatnonzero(_norms(W) > limit) if W.size else np.zeros(0, int)
+        if bad.size:
+            k = int(bad[0])
+            columns = ", ".join(conv.rates or XCHECK_RATES)
+            raise ValueError(f"{where}, {row(k)}: the body rate {W[k].tolist()} ({columns}) "
+                             f"exceeds {limit:.3g} {conv.rates_unit} in magnitude: expected at most that (xcheck's "
+                             "bound on a rate)")
 
 
 def to_world(conv: Convention, t, A, W, *, earth: Earth | None, where: str = "", check: bool = True,
@@ -255,9 +309,11 @@ def to_world(conv: Convention, t, A, W, *, earth: Earth | None, where: str = "",
     def row(k: int) -> str:
         return f"line {lines[k]}" if lines is not None else f"row {k}"
 
+    if check:
+        _bounded(conv, A, W, where, row)
     if conv.attitude == "quaternion":
         q = A if conv.scalar == "first" else A[:, [3, 0, 1, 2]]
-        norm = np.linalg.norm(q, axis=1)
+        norm = _norms(q)
         off = np.abs(norm - 1.0)
         k = int(np.argmax(off)) if len(off) else 0
         if check and len(off) and off[k] > UNIT_TOLERANCE:

@@ -218,6 +218,8 @@ def _explain(path, rows, line_numbers, use, names, header):
                         f"{header[len(fields)] if len(fields) < len(header) else need!r} is missing)")
         for i, name in zip(use, names):
             try:
+                if "_" in fields[i]:  # Python's float takes 0_5 as 5, a CSV reader does not (issue 64)
+                    raise ValueError
                 float(fields[i])
             except ValueError:
                 _fail(path, f"line {line}, column {name!r}: {fields[i].strip()!r} is not a number")

@@ -16,7 +16,7 @@ from .detective import EXPLAINS, investigate
 from .earth import Earth
 from .reader import TrajectoryFileError, read_samples
 
-__all__ = ["FileScore", "score_file", "growth_exponent", "PLOT_POINTS"]
+__all__ = ["FileScore", "score_file", "read_file", "growth_exponent", "PLOT_POINTS", "KEPT_ROWS"]
 
 #: Points of a file's error series kept for the figures (spread evenly in log time).
 PLOT_POINTS = 200
@@ -116,16 +116,42 @@ def _log_spread(t, n: int) -> np.ndarray:
     return np.unique(np.concatenate([[0], idx, [len(t) - 1]]))
 
 
-def score_file(conv: Convention, reference, *, inertia, duration: float, earth: Earth | None, tolerance: float,
-               torque_free: bool) -> FileScore:
-    """Score ``conv``'s file: ``reference(t) -> (q, omega, mask)`` the scenario's reference at any times (``mask``:
-    where it is defined), ``inertia`` the body's, ``tolerance`` the default limit of the attitude error [rad]."""
+_READ: dict = {}  # (conv, duration, earth, the file's size and time stamp) -> (Samples, Converted); see read_file
+#: The rows of the files :func:`read_file` keeps read, in all (about 150 MB): a larger file is read again to be scored.
+KEPT_ROWS = 2_000_000
+
+
+def read_file(conv: Convention, *, duration: float, earth: Earth | None):
+    """``(samples, world)``: ``conv``'s file read and checked (:func:`~xcheck.scoring.reader.read_samples`) and
+    converted to xcheck's convention (:func:`~xcheck.scoring.convention.to_world`), or a
+    :class:`~xcheck.scoring.reader.TrajectoryFileError` naming the file, the line and the column (exit 2). Kept for
+    the process while the file is unchanged: a study reads its files before it runs (issue 64: a bad file refused
+    before the work, not after it) and scores them after, reading each once."""
+    try:
+        stat = conv.file.stat()
+        key = (conv, duration, earth, stat.st_size, stat.st_mtime_ns)
+    except (OSError, TypeError):  # missing (read_samples says so) or unhashable: not kept
+        key = None
+    if key is not None and key in _READ:
+        return _READ[key]
     samples = read_samples(conv, duration=duration)
     try:
         world = to_world(conv, samples.t, samples.attitude, samples.rates, earth=earth, where=str(conv.file),
                          lines=samples.lines)
     except ValueError as exc:  # a quaternion or matrix off the unit sphere, named by its line
         raise TrajectoryFileError(str(exc)) from None
+    if key is not None:
+        _READ[key] = (samples, world)
+        while sum(len(w.t) for _, w in _READ.values()) > KEPT_ROWS and len(_READ) > 1:
+            del _READ[next(iter(_READ))]  # the oldest first
+    return samples, world
+
+
+def score_file(conv: Convention, reference, *, inertia, duration: float, earth: Earth | None, tolerance: float,
+               torque_free: bool) -> FileScore:
+    """Score ``conv``'s file: ``reference(t) -> (q, omega, mask)`` the scenario's reference at any times (``mask``:
+    where it is defined), ``inertia`` the body's, ``tolerance`` the default limit of the attitude error [rad]."""
+    samples, world = read_file(conv, duration=duration, earth=earth)
     notes = [*world.notes, *_euler_notes(conv, samples)]
     q_ref, w_ref, mask = reference(world.t)
     if not mask.all():
@@ -149,7 +175,8 @@ def score_file(conv: Convention, reference, *, inertia, duration: float, earth: 
     keep = _log_spread(world.t, PLOT_POINTS)
     series = {"t": world.t[keep], "attitude_error": att[keep],
               **({"rate_error": rate[keep]} if rate is not None else {})}
-    score = FileScore(name=conv.name, file=str(conv.file), convention=conv.describe(), rows=len(world.t),
+    score = FileScore(name=conv.name, file=str(conv.file), convention=conv.describe(samples.rate_columns),
+                      rows=len(world.t),
                       span=(float(world.t[0]), float(world.t[-1])), max_attitude_error=max_att,
                       final_attitude_error=float(att[mask][-1]), max_rate_error=max_rate,
                       growth=growth_exponent(world.t[mask], att[mask]), energy_change=kept.get("energy_change"),

@@ -32,7 +32,7 @@ from ..versions import versions
 from .advice import advice
 from .checks import adaptive_note, planned_checks, qualify, study_checks, study_floor, verdict
 from .executor import map_tasks, prefer_here
-from .files import score_trajectories
+from .files import read_trajectories, score_trajectories
 from .finer import finer_steps, merged
 from .measure import PLOT_SAMPLE_DT, resolve_comparisons, run_methods
 from .statements import accuracy, consistency
@@ -316,6 +316,7 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     kept = stored(key, timing)
     if kept is not None:
         return kept
+    read_trajectories([scenario])  # a bad file refused before the work
     tasks = study_tasks(scenario, methods, planned, tolerances, timing)
     starting(progress, len(tasks))
     guard_references([scenario])
@@ -397,6 +398,7 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
     tolerances = [sc.quick_tolerances if quick else sc.tolerances for sc in scenarios]
     per_study = [study_tasks(sc, methods, planned, tol) for (sc, methods, _, planned), tol in zip(plans, tolerances)]
     keys = [study_key(sc, methods, steps, tol, quick) for (sc, methods, steps, _), tol in zip(plans, tolerances)]
+    read_trajectories(scenarios)  # a bad file refused before the work
     tasks = [task for ts in per_study for task in ts]
     starting(progress, len(tasks))
     guard_references(scenarios)

@@ -6,9 +6,19 @@ reference (:func:`xcheck.scoring.score.score_file`) in the process that assemble
 from __future__ import annotations
 
 from ..results import Check
-from ..scoring.score import score_file
+from ..scoring.score import read_file, score_file
 
-__all__ = ["score_trajectories"]
+__all__ = ["score_trajectories", "read_trajectories"]
+
+
+def read_trajectories(scenarios) -> None:
+    """Read and check every ``[[trajectory]]`` file of ``scenarios`` before their studies run (issue 64: a malformed
+    file was refused after 7-15 s of work, a three-scenario report lost whole): a
+    :class:`~xcheck.scoring.reader.TrajectoryFileError` naming the file, line and column (exit 2). The files read
+    are kept for their scoring (:func:`~xcheck.scoring.score.read_file`)."""
+    for sc in scenarios:
+        for conv in sc.trajectories or ():
+            read_file(conv, duration=sc.duration, earth=sc.earth)
 
 
 def score_trajectories(st):
