@@ -255,19 +255,14 @@ def _norms(X: np.ndarray) -> np.ndarray:
 
 
 def _bounded(conv: Convention, A: np.ndarray, W, where: str, row) -> None:
-    """The gate of a file's numbers before they are converted (issue 64): an attitude that cannot be made a rotation
-    (a quaternion of norm 0, a matrix that is singular or a reflection, even to normalise: no rotation is nearest
-    to it), Euler angles beyond :data:`MAX_ANGLE`, and body rates beyond :data:`~xcheck.body.MAX_RATE` (after the
-    unit) are refused, naming the file, the line, the columns and the bound: a ValueError."""
+    """The gate of a file's numbers before they are converted (issue 64): a matrix that cannot be made a rotation
+    (zero, singular or a reflection, even to normalise: no rotation is nearest to it), Euler angles beyond
+    :data:`MAX_ANGLE`, and body rates beyond :data:`~xcheck.body.MAX_RATE` (after the unit) are refused, naming the
+    file, the line, the columns and the bound: a ValueError. (A quaternion of norm 0 is refused where
+    :func:`to_world` forms its norms.)"""
     from ..body import MAX_RATE
 
-    if conv.attitude == "quaternion":
-        bad = np.flatnonzero(~(_norms(A) > 0))
-        if bad.size:
-            k = int(bad[0])
-            raise ValueError(f"{where}, {row(k)}: the quaternion {A[k].tolist()} ({', '.join(conv.attitude_columns)}) "
-                             "has norm 0: no rotation, normalised or not")
-    elif conv.attitude == "dcm":
+    if conv.attitude == "dcm":
         R = A.reshape(-1, 3, 3)
         scale = np.max(np.abs(A), axis=1) if A.size else np.zeros(0)
         det = np.linalg.det(R / np.where(scale > 0, scale, 1.0)[:, None, None]) if len(R) else np.zeros(0)
@@ -277,7 +272,7 @@ def _bounded(conv: Convention, A: np.ndarray, W, where: str, row) -> None:
             what = "is zero" if scale[k] == 0 else "is a reflection (determinant < 0)" if det[k] < 0 else "is singular"
             raise ValueError(f"{where}, {row(k)}: the matrix ({', '.join(conv.attitude_columns)}) {what}: no rotation "
                              "is nearest to it, orthonormalised or not")
-    else:
+    elif conv.attitude == "euler":
         limit = np.degrees(MAX_ANGLE) if conv.angle_unit == "deg" else MAX_ANGLE
         bad = np.flatnonzero(np.max(np.abs(A), axis=1) > limit) if A.size else np.zeros(0, int)
         if bad.size:
@@ -314,6 +309,11 @@ def to_world(conv: Convention, t, A, W, *, earth: Earth | None, where: str = "",
     if conv.attitude == "quaternion":
         q = A if conv.scalar == "first" else A[:, [3, 0, 1, 2]]
         norm = _norms(q)
+        zero = np.flatnonzero(~(norm > 0)) if check else ()
+        if len(zero):
+            k = int(zero[0])
+            raise ValueError(f"{where}, {row(k)}: the quaternion {A[k].tolist()} ({', '.join(conv.attitude_columns)}) "
+                             "has norm 0: no rotation, normalised or not")
         off = np.abs(norm - 1.0)
         k = int(np.argmax(off)) if len(off) else 0
         if check and len(off) and off[k] > UNIT_TOLERANCE:

@@ -176,8 +176,7 @@ def score_file(conv: Convention, reference, *, inertia, duration: float, earth: 
     series = {"t": world.t[keep], "attitude_error": att[keep],
               **({"rate_error": rate[keep]} if rate is not None else {})}
     score = FileScore(name=conv.name, file=str(conv.file), convention=conv.describe(samples.rate_columns),
-                      rows=len(world.t),
-                      span=(float(world.t[0]), float(world.t[-1])), max_attitude_error=max_att,
+                      rows=len(world.t), span=(float(world.t[0]), float(world.t[-1])), max_attitude_error=max_att,
                       final_attitude_error=float(att[mask][-1]), max_rate_error=max_rate,
                       growth=growth_exponent(world.t[mask], att[mask]), energy_change=kept.get("energy_change"),
                       momentum_change=kept.get("momentum_change"), momentum_turn=kept.get("momentum_turn"),

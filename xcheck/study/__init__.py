@@ -327,12 +327,9 @@ def run_study(scenario: Scenario, *, methods=None, steps=None, quick: bool = Fal
     st = assemble(scenario, steps, results, quick=as_quick, planned=planned)
     finer = _finer(st, as_quick)
     if finer:  # an engine's order undecided at the study's steps: its next halvings, where they are cheap
-        tasks = study_tasks(scenario, list(finer), {m: (d, (), "") for m, d in finer.items()}, tolerances, timing)
-        starting(progress, len(tasks), FINER)
-        done = map_tasks(run_methods, tasks, workers=workers, progress=progress, pool=pool,
-                         labels=[_label(task) for task in tasks], here=prefer_here if here else None)
-        st = assemble(scenario, steps, merged(results, [r for task_runs in done for r in task_runs]), quick=as_quick,
-                      planned=planned, finer=finer)
+        [runs] = _finer_round([(scenario, finer, tolerances)], timing, workers=workers, progress=progress, pool=pool,
+                              here=here)
+        st = assemble(scenario, steps, merged(results, runs), quick=as_quick, planned=planned, finer=finer)
     st = score_trajectories(about_the_model(st, quick))
     keep(key, st, timing)
     return st
@@ -345,6 +342,20 @@ FINER = "finer steps to decide an engine's order"
 def _finer(st: StudyResult, quick: bool) -> dict:
     """The finer steps (:func:`~xcheck.study.finer.finer_steps`) a study ``st`` runs to decide its engines' orders."""
     return finer_steps(st.scenario, st.methods, st.checks, st.over_budget, quick, WIDE_CEILING)
+
+
+def _finer_round(wanted, timing: bool, *, workers, progress, pool, here) -> list[list]:
+    """The runs at their finer steps of every ``(scenario, method -> finer steps, tolerances)`` of ``wanted``, in one
+    round of tasks (:func:`map_tasks`): per entry, its methods' :class:`~xcheck.results.MethodRuns`."""
+    owned = [(k, task) for k, (sc, finer, tol) in enumerate(wanted)
+             for task in study_tasks(sc, list(finer), {m: (d, (), "") for m, d in finer.items()}, tol, timing)]
+    starting(progress, len(owned), FINER)
+    done = map_tasks(run_methods, [task for _, task in owned], workers=workers, progress=progress, pool=pool,
+                     labels=[_label(task) for _, task in owned], here=prefer_here if here else None)
+    out: list = [[] for _ in wanted]
+    for (k, _), task_runs in zip(owned, done):
+        out[k] += task_runs
+    return out
 
 
 def study_tasks(scenario: Scenario, methods, planned: dict, tolerances, timing: bool = True) -> list[tuple]:
@@ -430,14 +441,10 @@ def run_studies(scenarios, *, quick: bool = False, workers: int | None = None, p
               on_result=done, here=prefer_here if here else None, idle=idle)
     later = [k for k, f in finer.items() if f]
     if later:
-        more = [(k, task) for k in later for task in study_tasks(plans[k][0], list(finer[k]), {
-            m: (d, (), "") for m, d in finer[k].items()}, tolerances[k])]
-        starting(progress, len(more), FINER)
-        done = map_tasks(run_methods, [task for _, task in more], workers=workers, progress=progress, pool=pool,
-                         labels=[_label(task) for _, task in more], here=prefer_here if here else None)
-        for k in later:
+        rounds = _finer_round([(plans[k][0], finer[k], tolerances[k]) for k in later], True, workers=workers,
+                              progress=progress, pool=pool, here=here)
+        for k, runs in zip(later, rounds):
             sc, methods, steps, planned = plans[k]
-            runs = [r for (j, _), task_runs in zip(more, done) if j == k for r in task_runs]
             finish(k, assemble(sc, steps, merged([results[k][m] for m in methods], runs), quick=quick,
                                planned=planned, finer=finer[k]))
     return studies
